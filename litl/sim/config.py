@@ -1,0 +1,174 @@
+"""Static simulator configuration: grid, time step, gravity, material model, boundaries.
+
+Everything here is a frozen, hashable dataclass. It is closed over by the factories in
+`litl.sim.step` and `litl.sim.rollout`, so changing it recompiles; differentiable quantities live in
+`litl.sim.state.Design` instead.
+
+Conventions:
+  * The domain is the box [0, grid_shape[a] * dx] along each axis a; grid node i of axis a sits at
+    i * dx.
+  * Axis 1 is "up": the face at the low end of axis 1 is the floor. Gravity is any vector.
+  * A wall of thickness t acts on the nodes with index i < t at the low end of an axis and
+    i > n - t at the high end (the convention of ChainQueen / DiffTaichi's `diffmpm`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Literal
+
+WallKind = Literal["sticky", "slip", "friction", "open"]
+Material = Literal["fixed_corotated", "neo_hookean"]
+
+WALL_KINDS = ("sticky", "slip", "friction", "open")
+MATERIALS = ("fixed_corotated", "neo_hookean")
+
+
+class ConfigError(ValueError):
+    """A simulator setting is invalid; the message says which and how to fix it."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Wall:
+    """How one face of the domain treats grid velocity pointing into it.
+
+    Attributes:
+      kind: ``"sticky"`` zeroes the whole velocity; ``"slip"`` removes the normal component;
+        ``"friction"`` removes the normal component and reduces the tangential speed by
+        ``friction * |normal speed|`` (Coulomb), stopping it if it would reverse; ``"open"`` does
+        nothing (particles may then leave the grid, which is detected and reported).
+      friction: Coulomb coefficient, used by ``"friction"`` only; must be >= 0.
+    """
+
+    kind: WallKind = "sticky"
+    friction: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in WALL_KINDS:
+            raise ConfigError(f"unknown wall kind {self.kind!r}; choose one of {WALL_KINDS}")
+        if not (self.friction >= 0.0 and math.isfinite(self.friction)):
+            raise ConfigError(f"wall friction must be a finite number >= 0, got {self.friction!r}")
+        if self.kind != "friction" and self.friction != 0.0:
+            raise ConfigError(
+                f"a {self.kind!r} wall ignores friction={self.friction}; use Wall('friction', "
+                f"{self.friction}) for a Coulomb wall"
+            )
+
+
+@dataclasses.dataclass(frozen=True)
+class Boundary:
+    """Grid boundary conditions.
+
+    Attributes:
+      walls: one `Wall` per face, ordered (axis 0 low, axis 0 high, axis 1 low, axis 1 high, ...);
+        axis 1 low is the floor.
+      thickness: wall thickness in grid cells (>= 1).
+      pinned_boxes: boxes ``((lo_0, lo_1, ...), (hi_0, hi_1, ...))`` in domain coordinates whose grid
+        nodes have their velocity set to zero every step (e.g. the fixed base of an arm).
+    """
+
+    walls: tuple[Wall, ...]
+    thickness: int = 3
+    pinned_boxes: tuple[tuple[tuple[float, ...], tuple[float, ...]], ...] = ()
+
+    @classmethod
+    def box(
+        cls,
+        dim: int,
+        floor: Wall | WallKind = "sticky",
+        sides: Wall | WallKind = "sticky",
+        thickness: int = 3,
+        pinned_boxes=(),
+    ) -> "Boundary":
+        """A closed box: `floor` on the low face of axis 1, `sides` on every other face."""
+        floor = floor if isinstance(floor, Wall) else Wall(floor)
+        sides = sides if isinstance(sides, Wall) else Wall(sides)
+        walls = [sides] * (2 * dim)
+        walls[2] = floor
+        return cls(walls=tuple(walls), thickness=thickness, pinned_boxes=_as_boxes(pinned_boxes))
+
+    def __post_init__(self):
+        object.__setattr__(self, "walls", tuple(self.walls))
+        object.__setattr__(self, "pinned_boxes", _as_boxes(self.pinned_boxes))
+        if not all(isinstance(w, Wall) for w in self.walls):
+            raise ConfigError("Boundary.walls must be Wall objects, e.g. Wall('sticky')")
+        if not isinstance(self.thickness, int) or self.thickness < 1:
+            raise ConfigError(f"wall thickness must be an integer >= 1 cell, got {self.thickness!r}")
+
+
+def _as_boxes(boxes):
+    return tuple((tuple(float(v) for v in lo), tuple(float(v) for v in hi)) for lo, hi in boxes)
+
+
+@dataclasses.dataclass(frozen=True)
+class SimConfig:
+    """Static configuration of an MLS-MPM simulation.
+
+    Attributes:
+      grid_shape: number of grid nodes per axis, e.g. ``(128, 128)`` or ``(128, 64)`` in 2D,
+        ``(64, 64, 64)`` in 3D. Its length is the dimension.
+      dx: grid spacing (domain units).
+      dt: time step.
+      gravity: acceleration vector, one entry per axis (zero allowed).
+      boundary: walls and pinned regions; default: sticky box of thickness 3.
+      material: ``"fixed_corotated"`` or ``"neo_hookean"``.
+      mass_epsilon: added to the grid mass before dividing momentum by it.
+    """
+
+    grid_shape: tuple[int, ...]
+    dx: float
+    dt: float
+    gravity: tuple[float, ...]
+    boundary: Boundary | None = None
+    material: Material = "fixed_corotated"
+    mass_epsilon: float = 1e-10
+
+    def __post_init__(self):
+        object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
+        object.__setattr__(self, "gravity", tuple(float(g) for g in self.gravity))
+        dim = len(self.grid_shape)
+        if dim not in (2, 3):
+            raise ConfigError(
+                f"grid_shape must have 2 or 3 entries (the dimension), got {self.grid_shape!r}"
+            )
+        for n in self.grid_shape:
+            if not isinstance(n, int) or n < 8:
+                raise ConfigError(
+                    f"every grid_shape entry must be an integer >= 8 nodes, got {self.grid_shape!r}"
+                )
+        for name in ("dx", "dt"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"{name} must be a positive finite number, got {value!r}")
+        if len(self.gravity) != dim or not all(math.isfinite(g) for g in self.gravity):
+            raise ConfigError(
+                f"gravity must be a finite vector with {dim} entries (one per axis), "
+                f"got {self.gravity!r}"
+            )
+        if self.material not in MATERIALS:
+            raise ConfigError(f"unknown material {self.material!r}; choose one of {MATERIALS}")
+        if self.boundary is None:
+            object.__setattr__(self, "boundary", Boundary.box(dim))
+        if len(self.boundary.walls) != 2 * dim:
+            raise ConfigError(
+                f"a {dim}D boundary needs {2 * dim} walls (low and high face of each axis), "
+                f"got {len(self.boundary.walls)}"
+            )
+        if 2 * self.boundary.thickness + 3 > min(self.grid_shape):
+            raise ConfigError(
+                f"wall thickness {self.boundary.thickness} leaves no room in grid {self.grid_shape}"
+            )
+        for lo, hi in self.boundary.pinned_boxes:
+            if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi)):
+                raise ConfigError(
+                    f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi"
+                )
+
+    @property
+    def dim(self) -> int:
+        return len(self.grid_shape)
+
+    @property
+    def domain_size(self) -> tuple[float, ...]:
+        return tuple(n * self.dx for n in self.grid_shape)

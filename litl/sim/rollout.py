@@ -1,0 +1,148 @@
+"""Rollouts: a `lax.scan` over steps with rematerialization, driven by a policy callback.
+
+The policy sees the current state and the latest post-boundary grid velocity (the observer's input)
+and returns one actuation value per actuator:
+
+    policy(policy_params, state, grid_velocity) -> (m,) actuation
+
+`state.step` gives the step index for open-loop (time-dependent) policies.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from litl.sim.config import SimConfig
+from litl.sim.state import Body, Design, SimState
+from litl.sim.step import make_step, rasterize
+
+Policy = Callable[[Any, SimState, jnp.ndarray], jnp.ndarray]
+
+
+@struct.dataclass
+class Health:
+    """Whether a rollout stayed valid; each field is the first step index that failed, or -1.
+
+    Attributes:
+      first_nonfinite_step: () int32, first step whose result had a NaN or infinity.
+      first_escape_step: () int32, first step after which a particle's stencil left the grid.
+    """
+
+    first_nonfinite_step: jnp.ndarray
+    first_escape_step: jnp.ndarray
+
+    @classmethod
+    def ok(cls) -> "Health":
+        return cls(jnp.array(-1, jnp.int32), jnp.array(-1, jnp.int32))
+
+    def record(self, config: SimConfig, state: SimState, step_index) -> "Health":
+        finite = jnp.all(jnp.isfinite(state.x)) & jnp.all(jnp.isfinite(state.v))
+        finite &= jnp.all(jnp.isfinite(state.F))
+        cells = state.x / config.dx - 0.5
+        upper = jnp.asarray(config.grid_shape, state.x.dtype) - 3
+        inside = jnp.all((cells >= 0) & (cells < upper + 1))
+        first = lambda seen, good: jnp.where((seen < 0) & ~good, step_index, seen)
+        return Health(
+            first_nonfinite_step=first(self.first_nonfinite_step, finite),
+            first_escape_step=first(self.first_escape_step, inside),
+        )
+
+
+@struct.dataclass
+class Trajectory:
+    """What a rollout returns besides the final state.
+
+    Attributes:
+      snapshots: (n_snapshots, *grid_shape, d) grid velocity after steps stride, 2*stride, ...;
+        (0, *grid_shape, d) without a stride.
+      observations: pytree of `observe(state)` after every step, each leaf (steps, ...).
+      health: validity of the rollout (see `Health`).
+    """
+
+    snapshots: jnp.ndarray
+    observations: Any
+    health: Health
+
+
+def centroid(state: SimState):
+    """(d,) mean particle position: the default per-step observation."""
+    return jnp.mean(state.x, axis=0)
+
+
+def make_rollout(
+    config: SimConfig,
+    body: Body,
+    policy: Policy,
+    steps: int,
+    snapshot_stride: int | None = None,
+    observe: Callable[[SimState], Any] = centroid,
+    remat: bool = True,
+):
+    """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
+
+    Pure and jittable; differentiate it with `jax.grad` through a loss of its outputs. With `remat`
+    each step is recomputed in the backward pass, so reverse-mode memory is the particle state per
+    step (plus the recorded observations and snapshots) rather than every intermediate of every step.
+
+    Args:
+      config: static simulator configuration.
+      body: particle layout (volumes, actuator ids, fibers, pinned particles).
+      policy: ``policy(params, state, grid_velocity) -> (m,) actuation``.
+      steps: number of steps (> 0).
+      snapshot_stride: record the grid velocity every this many steps (None: no snapshots).
+      observe: per-step observation of the state, recorded after every step.
+      remat: rematerialize each step in the backward pass (`jax.checkpoint`).
+    """
+    if not isinstance(steps, int) or steps <= 0:
+        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+    if snapshot_stride is not None and (
+        not isinstance(snapshot_stride, int) or not 0 < snapshot_stride <= steps
+    ):
+        raise ValueError(
+            f"snapshot_stride must be an integer in [1, steps={steps}] or None, "
+            f"got {snapshot_stride!r}"
+        )
+    step_fn = make_step(config, body)
+
+    def rollout(policy_params, design: Design, initial_state: SimState):
+        def one_step(carry, _):
+            state, grid_velocity, health = carry
+            actuation = policy(policy_params, state, grid_velocity)
+            index = state.step
+            state, grid = step_fn(state, actuation, design)
+            health = health.record(config, state, index)
+            return (state, grid.velocity, health), observe(state)
+
+        if remat:
+            one_step = jax.checkpoint(one_step)
+        grid_velocity = rasterize(config, body, initial_state, design).velocity
+        carry = (initial_state, grid_velocity, Health.ok())
+        snapshots = jnp.zeros((0,) + grid_velocity.shape, grid_velocity.dtype)
+        if snapshot_stride is None:
+            carry, observations = jax.lax.scan(one_step, carry, length=steps)
+        else:
+            n_chunks, rest = divmod(steps, snapshot_stride)
+
+            def chunk(carry, _):
+                carry, observed = jax.lax.scan(one_step, carry, length=snapshot_stride)
+                return carry, (observed, carry[1])
+
+            carry, (observations, snapshots) = jax.lax.scan(chunk, carry, length=n_chunks)
+            observations = jax.tree.map(
+                lambda o: o.reshape((n_chunks * snapshot_stride,) + o.shape[2:]), observations
+            )
+            if rest:
+                carry, tail = jax.lax.scan(one_step, carry, length=rest)
+                observations = jax.tree.map(
+                    lambda a, b: jnp.concatenate([a, b]), observations, tail
+                )
+        final_state, _, health = carry
+        return final_state, Trajectory(
+            snapshots=snapshots, observations=observations, health=health
+        )
+
+    return rollout
