@@ -31,39 +31,46 @@ def pinned_node_mask(config: SimConfig) -> np.ndarray:
     return mask
 
 
-def _safe_norm(v):
-    sq = jnp.sum(v * v, axis=-1)
+def _safe_norm(components):
+    sq = sum(c * c for c in components)
     positive = sq > 0
     return jnp.where(positive, jnp.sqrt(jnp.where(positive, sq, 1.0)), 0.0)
 
 
 def apply_boundary(config: SimConfig, velocity):
-    """Enforce walls and pinned regions on a (*grid_shape, d) grid velocity field.
+    """Enforce walls and pinned regions on grid velocity components.
 
     Faces are applied in order (axis 0 low, axis 0 high, axis 1 low, ...). On a face's layer, a wall
     acts only on velocities moving into it (outward normal component > 0).
+
+    Args:
+      config: supplies grid shape and boundary.
+      velocity: d arrays (*grid_shape,), the grid velocity components.
+
+    Returns:
+      d arrays (*grid_shape,), the constrained velocity components.
     """
     boundary: Boundary = config.boundary
+    velocity = list(velocity)
     for face, (wall, layer) in enumerate(zip(boundary.walls, _face_masks(config))):
         if wall.kind == "open":
             continue
         axis, high = divmod(face, 2)
-        normal_speed = velocity[..., axis]
-        into_wall = (normal_speed > 0) if high else (normal_speed < 0)
-        hit = (jnp.asarray(layer) & into_wall)[..., None]
+        normal_speed = velocity[axis]
+        hit = jnp.asarray(layer) & ((normal_speed > 0) if high else (normal_speed < 0))
         if wall.kind == "sticky":
-            new = jnp.zeros_like(velocity)
-        else:
-            tangential = velocity.at[..., axis].set(0.0)
-            if wall.kind == "friction":
-                speed = _safe_norm(tangential)
-                # Coulomb: the tangential speed drops by mu * |normal speed|, never below zero.
-                reduced = jnp.maximum(speed - wall.friction * jnp.abs(normal_speed), 0.0)
-                scale = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
-                tangential = tangential * scale[..., None]
-            new = tangential
-        velocity = jnp.where(hit, new, velocity)
+            velocity = [jnp.where(hit, 0.0, v) for v in velocity]
+            continue
+        tangential = [v for a, v in enumerate(velocity) if a != axis]
+        if wall.kind == "friction":
+            speed = _safe_norm(tangential)
+            # Coulomb: the tangential speed drops by mu * |normal speed|, never below zero.
+            reduced = jnp.maximum(speed - wall.friction * jnp.abs(normal_speed), 0.0)
+            factor = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
+            velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0)
+                        for a, v in enumerate(velocity)]
+        velocity[axis] = jnp.where(hit, 0.0, normal_speed)
     if boundary.pinned_boxes:
-        pinned = jnp.asarray(pinned_node_mask(config))[..., None]
-        velocity = jnp.where(pinned, 0.0, velocity)
+        pinned = jnp.asarray(pinned_node_mask(config))
+        velocity = [jnp.where(pinned, 0.0, v) for v in velocity]
     return velocity

@@ -1,6 +1,6 @@
 """Constitutive models as Kirchhoff stresses tau(F), plus the active actuation stress.
 
-All functions take per-particle arrays: F (n, d, d), Lamé parameters mu, lam (n,).
+Matrices are per-component lists (see `litl.sim.linalg`): F[i][j] is an (n,) array; mu, lam (n,).
 """
 
 from __future__ import annotations
@@ -10,22 +10,24 @@ import jax.numpy as jnp
 from litl.sim import linalg
 
 
+def _add_to_diagonal(m, value):
+    return [[x + value if i == j else x for j, x in enumerate(row)] for i, row in enumerate(m)]
+
+
 def fixed_corotated(F, mu, lam):
     """tau = 2 mu (F - R) F^T + lam (J - 1) J I (ChainQueen / DiffTaichi form)."""
     R = linalg.polar_rotation(F)
     J = linalg.det(F)
-    shear = 2 * mu[:, None, None] * linalg.matmul(F - R, linalg.transpose(F))
-    return shear + (lam * (J - 1) * J)[:, None, None] * linalg.identity_like(F)
+    shear = linalg.scale(linalg.matmul_transposed(linalg.sub(F, R), F), 2 * mu)
+    return _add_to_diagonal(shear, lam * (J - 1) * J)
 
 
 def neo_hookean(F, mu, lam):
     """tau = mu (F F^T - I) + lam log(J) I."""
     J = linalg.det(F)
-    eye = linalg.identity_like(F)
     # log(J) is undefined for inverted particles (J <= 0); such a state is reported as non-finite.
-    return mu[:, None, None] * (linalg.matmul(F, linalg.transpose(F)) - eye) + (
-        lam * jnp.log(J)
-    )[:, None, None] * eye
+    shear = linalg.scale(linalg.matmul_transposed(F, F), mu)
+    return _add_to_diagonal(shear, lam * jnp.log(J) - mu)
 
 
 MODELS = {"fixed_corotated": fixed_corotated, "neo_hookean": neo_hookean}
@@ -35,9 +37,9 @@ def actuation_stress(F, activation, fiber):
     """Active stress F A F^T with A = a (d ⊗ d), along each particle's fiber direction.
 
     Args:
-      F: (n, d, d) deformation gradients.
+      F: deformation gradients, F[i][j] of shape (n,).
       activation: (n,) signed active stress magnitude a of each particle (0 for passive ones).
-      fiber: (n, d) unit fiber direction of each particle in the material frame.
+      fiber: d arrays (n,), unit fiber direction of each particle in the material frame.
     """
-    Fd = linalg.matvec(F, fiber)  # F d, so that F (d ⊗ d) F^T = (F d) ⊗ (F d)
-    return activation[:, None, None] * linalg.outer(Fd, Fd)
+    Fd = linalg.matvec(F, fiber)  # F (d ⊗ d) F^T = (F d) ⊗ (F d)
+    return linalg.scale(linalg.outer(Fd, Fd), activation)

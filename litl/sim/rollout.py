@@ -18,7 +18,7 @@ from flax import struct
 
 from litl.sim.config import SimConfig
 from litl.sim.state import Body, Design, SimState
-from litl.sim.step import make_step, rasterize
+from litl.sim.step import Components, make_component_step, rasterize
 
 Policy = Callable[[Any, SimState, jnp.ndarray], jnp.ndarray]
 
@@ -106,21 +106,23 @@ def make_rollout(
             f"snapshot_stride must be an integer in [1, steps={steps}] or None, "
             f"got {snapshot_stride!r}"
         )
-    step_fn = make_step(config, body)
+    step_fn = make_component_step(config, body)
 
     def rollout(policy_params, design: Design, initial_state: SimState):
         def one_step(carry, _):
-            state, grid_velocity, health = carry
-            actuation = policy(policy_params, state, grid_velocity)
-            index = state.step
-            state, grid = step_fn(state, actuation, design)
+            components, grid_velocity, health = carry
+            # Packing is free where a policy or observation does not read a field: XLA drops it.
+            actuation = policy(policy_params, components.pack(), grid_velocity)
+            index = components.step
+            components, grid = step_fn(components, actuation, design)
+            state = components.pack()
             health = health.record(config, state, index)
-            return (state, grid.velocity, health), observe(state)
+            return (components, grid.velocity, health), observe(state)
 
         if remat:
             one_step = jax.checkpoint(one_step)
         grid_velocity = rasterize(config, body, initial_state, design).velocity
-        carry = (initial_state, grid_velocity, Health.ok())
+        carry = (Components.unpack(initial_state), grid_velocity, Health.ok())
         snapshots = jnp.zeros((0,) + grid_velocity.shape, grid_velocity.dtype)
         if snapshot_stride is None:
             carry, observations = jax.lax.scan(one_step, carry, length=steps)
@@ -140,8 +142,8 @@ def make_rollout(
                 observations = jax.tree.map(
                     lambda a, b: jnp.concatenate([a, b]), observations, tail
                 )
-        final_state, _, health = carry
-        return final_state, Trajectory(
+        final_components, _, health = carry
+        return final_components.pack(), Trajectory(
             snapshots=snapshots, observations=observations, health=health
         )
 

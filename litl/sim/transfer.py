@@ -1,9 +1,10 @@
 """Particle <-> grid transfers of MLS-MPM with quadratic B-splines, for any dimension.
 
 Each particle touches the 3^d nodes starting at its `base` node. Rather than scattering 3^d single
-values per particle, a particle's whole 3^d stencil is written as one window of a single `scatter`
-(and read back as one window of a `gather`), which XLA executes much faster than 3^d times as many
-scalar updates, and whose transpose (for reverse mode) is again one windowed gather/scatter.
+values per particle, a particle's whole stencil is written as one window of a single `scatter` (and
+read back as one window of a `gather`): XLA runs that much faster than 3^d times as many scalar
+updates, and its transpose for reverse mode is again one windowed gather/scatter. Per-particle
+arithmetic uses per-component (n,) arrays (see `litl.sim.linalg`).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ import itertools
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from flax import struct
+
+from litl.sim import linalg
 
 
 @struct.dataclass
@@ -21,50 +23,49 @@ class Stencil:
     """Where and how strongly each particle talks to the grid.
 
     Attributes:
-      base: (n, d) int32 index of the first node of each particle's 3^d stencil (clamped inside).
-      weights: (n, 3, ..., 3) B-spline weight of each stencil node (d axes of size 3).
-      offset: (n, 3, ..., 3, d) node position minus particle position, in cells.
+      base: (n, d) int32 index of the first node of each particle's 3^d stencil, clamped inside.
+      weights: d lists of 3 arrays (n,): the B-spline weight along axis a of node offset k.
+      fx: d arrays (n,): particle position relative to `base`, in cells (in [0.5, 1.5) inside).
       inside: (n,) bool, whether the unclamped stencil lies inside the grid.
     """
 
     base: jnp.ndarray
-    weights: jnp.ndarray
-    offset: jnp.ndarray
+    weights: list
+    fx: list
     inside: jnp.ndarray
 
+    @property
+    def dim(self) -> int:
+        return len(self.fx)
 
-def _node_offsets(dim, dtype):
-    """(3, ..., 3, d) integer offsets of the stencil nodes, as `dtype`."""
-    grid = np.stack(np.meshgrid(*[np.arange(3)] * dim, indexing="ij"), -1)
-    return jnp.asarray(grid, dtype)
+    def nodes(self):
+        """Yield (offset tuple, weight (n,)) for the 3^d stencil nodes in window (C) order."""
+        for offset in itertools.product(range(3), repeat=self.dim):
+            weight = self.weights[0][offset[0]]
+            for axis in range(1, self.dim):
+                weight = weight * self.weights[axis][offset[axis]]
+            yield offset, weight
 
 
 def stencil(x, dx, grid_shape) -> Stencil:
-    """Quadratic B-spline stencil of particles at positions x (n, d)."""
-    dim = x.shape[-1]
-    xi = x / dx
-    base_float = jnp.floor(xi - 0.5)
-    upper = jnp.asarray(grid_shape, x.dtype) - 3
-    inside = jnp.all((base_float >= 0) & (base_float <= upper), axis=-1)
-    # Clamping keeps every index valid (and every value finite) for particles that left the grid;
-    # `inside` reports them so that the caller can raise.
-    base_float = jnp.clip(base_float, 0, upper)
-    fx = xi - base_float
-    per_axis = jnp.stack(
-        [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2], axis=-1
-    )  # (n, d, 3)
-    weights = per_axis[:, 0]
-    for axis in range(1, dim):
-        weights = weights[..., None] * per_axis[:, axis].reshape((-1,) + (1,) * axis + (3,))
-    expand = (slice(None),) + (None,) * dim + (slice(None),)
-    offset = _node_offsets(dim, x.dtype)[None] - fx[expand]
-    return Stencil(base=base_float.astype(jnp.int32), weights=weights, offset=offset, inside=inside)
+    """Quadratic B-spline stencil of particles at positions x (d arrays (n,))."""
+    bases, fx, inside = [], [], True
+    for xa, n in zip(x, grid_shape):
+        cells = xa / dx - 0.5
+        base = jnp.floor(cells)
+        inside = inside & (base >= 0) & (base <= n - 3)
+        # Clamping keeps every index valid (and every value finite) for particles that left the
+        # grid; `inside` reports them so that the caller can raise.
+        base = jnp.clip(base, 0, n - 3)
+        bases.append(base.astype(jnp.int32))
+        fx.append(cells + 0.5 - base)
+    weights = [[0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2] for f in fx]
+    return Stencil(base=jnp.stack(bases, -1), weights=weights, fx=fx, inside=inside)
 
 
 def _window_numbers(dim):
-    window = tuple(range(1, dim + 2))
-    axes = tuple(range(dim))
-    return window, axes
+    window_dims = tuple(range(1, dim + 2))
+    return window_dims, tuple(range(dim))
 
 
 def scatter_to_grid(st: Stencil, values, grid_shape):
@@ -72,14 +73,13 @@ def scatter_to_grid(st: Stencil, values, grid_shape):
 
     Args:
       st: the particles' stencil.
-      values: (n, 3, ..., 3, c) value each particle adds to each of its stencil nodes.
+      values: (n, 3, ..., 3, c) value each particle adds to each of its 3^d stencil nodes.
       grid_shape: nodes per axis.
 
     Returns:
       (*grid_shape, c) grid of summed values.
     """
-    dim = st.base.shape[-1]
-    window, axes = _window_numbers(dim)
+    window, axes = _window_numbers(st.dim)
     numbers = jax.lax.ScatterDimensionNumbers(
         update_window_dims=window, inserted_window_dims=(), scatter_dims_to_operand_dims=axes
     )
@@ -90,9 +90,8 @@ def scatter_to_grid(st: Stencil, values, grid_shape):
 
 
 def gather_from_grid(st: Stencil, grid):
-    """Read each particle's 3^d stencil of a (*grid_shape, c) grid: (n, 3, ..., 3, c)."""
-    dim = st.base.shape[-1]
-    window, axes = _window_numbers(dim)
+    """Read each particle's stencil of a (*grid_shape, c) grid: (n, 3, ..., 3, c)."""
+    window, axes = _window_numbers(st.dim)
     numbers = jax.lax.GatherDimensionNumbers(
         offset_dims=window, collapsed_slice_dims=(), start_index_map=axes
     )
@@ -100,34 +99,42 @@ def gather_from_grid(st: Stencil, grid):
         grid,
         st.base,
         numbers,
-        slice_sizes=(3,) * dim + grid.shape[-1:],
+        slice_sizes=(3,) * st.dim + grid.shape[-1:],
         mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
     )
 
 
 def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape):
-    """MLS-MPM particle-to-grid transfer.
+    """MLS-MPM particle-to-grid transfer: node i gets w_ip (m_p, m_p v_p + A_p (x_i - x_p)).
 
     Args:
       st: stencil of the particles.
       mass: (n,) particle masses.
-      momentum: (n, d) particle momenta m v.
-      affine: (n, d, d) affine momentum matrix (stress term + m C).
+      momentum: d arrays (n,), particle momenta m v.
+      affine: d x d arrays (n,), affine momentum matrix A (stress term + m C).
       dx: grid spacing.
       grid_shape: nodes per axis.
 
     Returns:
-      grid_mass (*grid_shape,), grid_momentum (*grid_shape, d).
+      (*grid_shape, 1 + d) grid holding the mass, then the momentum components.
     """
-    dim = momentum.shape[-1]
-    lead = (slice(None),) + (None,) * dim
-    # momentum_i += w (m v + affine (x_i - x_p)),   x_i - x_p = offset * dx
-    affine_dpos = jnp.sum(affine[lead] * (st.offset * dx)[..., None, :], axis=-1)
-    node_momentum = st.weights[..., None] * (momentum[lead] + affine_dpos)
-    node_mass = st.weights * mass[lead]
-    values = jnp.concatenate([node_mass[..., None], node_momentum], axis=-1)
-    grid = scatter_to_grid(st, values, grid_shape)
-    return grid[..., 0], grid[..., 1:]
+    dim = st.dim
+    # x_i - x_p = (offset - fx) dx, so A (x_i - x_p) = dx A offset - dx A fx: the second part is
+    # the same for all nodes and folds into the momentum once per particle.
+    affine_fx = linalg.matvec(affine, st.fx)
+    shifted = [p - dx * a for p, a in zip(momentum, affine_fx)]
+    columns = [[dx * affine[c][k] for k in range(dim)] for c in range(dim)]
+    values = []
+    for offset, weight in st.nodes():
+        values.append(weight * mass)
+        for c in range(dim):
+            node = shifted[c]
+            for k in range(dim):
+                if offset[k]:
+                    node = node + offset[k] * columns[c][k]
+            values.append(weight * node)
+    values = linalg.stack(values, -1).reshape((-1,) + (3,) * dim + (1 + dim,))
+    return scatter_to_grid(st, values, grid_shape)
 
 
 def grid_to_particles(st: Stencil, grid_velocity, dx):
@@ -139,12 +146,19 @@ def grid_to_particles(st: Stencil, grid_velocity, dx):
       dx: grid spacing.
 
     Returns:
-      v (n, d) new particle velocities, C (n, d, d) new affine matrices.
+      v: d arrays (n,), new particle velocities; C: d x d arrays (n,), new affine matrices
+      C = 4/dx sum_i w_ip v_i (offset_i - fx)^T.
     """
-    dim = grid_velocity.shape[-1]
-    node_velocity = gather_from_grid(st, grid_velocity)  # (n, 3, .., 3, d)
-    weighted = st.weights[..., None] * node_velocity
-    axes = tuple(range(1, dim + 1))
-    v = jnp.sum(weighted, axis=axes)
-    C = (4.0 / dx) * jnp.sum(weighted[..., :, None] * st.offset[..., None, :], axis=axes)
+    dim = st.dim
+    window = linalg.unstack(gather_from_grid(st, grid_velocity).reshape(-1, 3**dim * dim), -1)
+    v = [0.0] * dim
+    moment = [[0.0] * dim for _ in range(dim)]  # sum_i w v_i offset_i^T
+    for node, (offset, weight) in enumerate(st.nodes()):
+        for c in range(dim):
+            wv = weight * window[node * dim + c]
+            v[c] = v[c] + wv
+            for k in range(dim):
+                if offset[k]:
+                    moment[c][k] = moment[c][k] + offset[k] * wv
+    C = [[(4.0 / dx) * (moment[c][k] - v[c] * st.fx[k]) for k in range(dim)] for c in range(dim)]
     return v, C
