@@ -80,6 +80,22 @@ def stack_mat(m: Mat):
     return stack([stack(row, -1) for row in m], -2)
 
 
+def materialize(x, token):
+    """Return x, computed into its own buffer before any consumer reads it.
+
+    XLA:CPU fuses cheap elementwise producers into every consumer, so a grid field read through a
+    gather (each node by up to 3^d * particles-per-cell particles) is recomputed per read: half the
+    cost of a step. `optimization_barrier` is dropped on CPU, but a conditional on a runtime value
+    is not: its branches are separate computations whose results are buffers.
+
+    Args:
+      x: pytree of arrays.
+      token: () int32 that is >= 0 at run time and *not* batched under vmap (e.g. a scan counter),
+        so that the conditional stays a conditional instead of becoming a select.
+    """
+    return jax.lax.cond(token >= 0, lambda t: t, lambda t: jax.tree.map(jnp.zeros_like, t), x)
+
+
 def identity(d, like) -> Mat:
     one, zero = jnp.ones_like(like), jnp.zeros_like(like)
     return [[one if i == j else zero for j in range(d)] for i in range(d)]

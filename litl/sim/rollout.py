@@ -73,6 +73,11 @@ def centroid(state: SimState):
     return jnp.mean(state.x, axis=0)
 
 
+def _counter(length):
+    # Scanned over as xs: a per-step int that stays unbatched under vmap (see linalg.materialize).
+    return jnp.arange(length, dtype=jnp.int32)
+
+
 def make_rollout(
     config: SimConfig,
     body: Body,
@@ -109,12 +114,12 @@ def make_rollout(
     step_fn = make_component_step(config, body)
 
     def rollout(policy_params, design: Design, initial_state: SimState):
-        def one_step(carry, _):
+        def one_step(carry, counter):
             components, grid_velocity, health = carry
             # Packing is free where a policy or observation does not read a field: XLA drops it.
             actuation = policy(policy_params, components.pack(), grid_velocity)
             index = components.step
-            components, grid = step_fn(components, actuation, design)
+            components, grid = step_fn(components, actuation, design, counter)
             state = components.pack()
             health = health.record(config, state, index)
             return (components, grid.velocity, health), observe(state)
@@ -125,12 +130,12 @@ def make_rollout(
         carry = (Components.unpack(initial_state), grid_velocity, Health.ok())
         snapshots = jnp.zeros((0,) + grid_velocity.shape, grid_velocity.dtype)
         if snapshot_stride is None:
-            carry, observations = jax.lax.scan(one_step, carry, length=steps)
+            carry, observations = jax.lax.scan(one_step, carry, _counter(steps))
         else:
             n_chunks, rest = divmod(steps, snapshot_stride)
 
             def chunk(carry, _):
-                carry, observed = jax.lax.scan(one_step, carry, length=snapshot_stride)
+                carry, observed = jax.lax.scan(one_step, carry, _counter(snapshot_stride))
                 return carry, (observed, carry[1])
 
             carry, (observations, snapshots) = jax.lax.scan(chunk, carry, length=n_chunks)
@@ -138,7 +143,7 @@ def make_rollout(
                 lambda o: o.reshape((n_chunks * snapshot_stride,) + o.shape[2:]), observations
             )
             if rest:
-                carry, tail = jax.lax.scan(one_step, carry, length=rest)
+                carry, tail = jax.lax.scan(one_step, carry, _counter(rest))
                 observations = jax.tree.map(
                     lambda a, b: jnp.concatenate([a, b]), observations, tail
                 )

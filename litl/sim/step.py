@@ -71,11 +71,15 @@ class Components:
 
 
 def make_component_step(config: SimConfig, body: Body):
-    """Like `make_step`, on `Components`: ``step(components, actuation, design)``."""
+    """Like `make_step`, on `Components`: ``step(components, actuation, design, token=None)``.
+
+    `token`, a () int32 >= 0 that is not batched under vmap (a scan counter), enables
+    `linalg.materialize` of the grid velocity, which makes the step about 30% faster on CPU.
+    """
     stress_model = MODELS[config.material]
     dx, dt, dim = config.dx, config.dt, config.dim
 
-    def step(state: Components, actuation, design: Design):
+    def step(state: Components, actuation, design: Design, token=None):
         dtype = state.x[0].dtype
         mass = design.density * body.volume
         mu, lam = design.lame()
@@ -92,6 +96,8 @@ def make_component_step(config: SimConfig, body: Body):
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
         velocity, grid_mass = _grid_update(config, grid, dtype)
         velocity = linalg.stack(velocity, -1)
+        if token is not None:
+            velocity = linalg.materialize(velocity, token)
         v, C = transfer.grid_to_particles(st, velocity, dx)
         free = ~body.pinned
         v = [jnp.where(free, c, 0.0) for c in v]
