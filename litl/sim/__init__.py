@@ -1,11 +1,21 @@
-"""Differentiable MLS-MPM simulation in JAX (2D and 3D)."""
+"""Differentiable MLS-MPM simulation in JAX (2D and 3D).
+
+Build a `SimConfig` (static), a `Body` (particle layout), a `Design` (differentiable materials and
+actuator strengths) and an initial `SimState`; then either take single steps with `make_step`, or
+run whole rollouts with `make_rollout` (pure, jittable, differentiable) or `simulate` (checked).
+"""
 
 from litl.sim.config import Boundary, ConfigError, SimConfig, Wall
 from litl.sim.rollout import Health, Trajectory, centroid, make_rollout
+from litl.sim.safety import (
+    SimulationError, check_time_step, raise_if_unhealthy, validate, wave_speed,
+)
+from litl.sim.simulate import simulate
 from litl.sim.state import Body, Design, Grid, SimState
 from litl.sim.step import make_step, rasterize
 
 __all__ = [
     "Body", "Boundary", "ConfigError", "Design", "Grid", "Health", "SimConfig", "SimState",
-    "Trajectory", "Wall", "centroid", "make_rollout", "make_step", "rasterize",
+    "SimulationError", "Trajectory", "Wall", "centroid", "check_time_step", "make_rollout",
+    "make_step", "raise_if_unhealthy", "rasterize", "simulate", "validate", "wave_speed",
 ]

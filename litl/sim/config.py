@@ -113,7 +113,8 @@ class SimConfig:
       gravity: acceleration vector, one entry per axis (zero allowed).
       boundary: walls and pinned regions; default: sticky box of thickness 3.
       material: ``"fixed_corotated"`` or ``"neo_hookean"``.
-      mass_epsilon: added to the grid mass before dividing momentum by it.
+      mass_epsilon: added to the grid mass before dividing momentum by it, in units of the mean
+        particle mass (1e-10 as in DiffTaichi, whose particles have unit mass).
     """
 
     grid_shape: tuple[int, ...]

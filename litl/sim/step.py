@@ -30,14 +30,20 @@ def particle_activation(body: Body, actuation, design: Design):
     return one_hot @ (design.actuator_strength * actuation), one_hot @ body.fiber
 
 
-def _grid_update(config: SimConfig, grid, dtype):
-    """Momentum -> velocity, gravity, boundaries. `grid`: (*grid_shape, 1 + d) mass and momentum."""
+def _grid_velocity(config: SimConfig, grid, particle_mass):
+    """Grid mass and momentum / mass; `grid` is (*grid_shape, 1 + d) mass then momentum."""
     mass, *momentum = linalg.unstack(grid, -1)
-    inverse_mass = 1.0 / (mass + config.mass_epsilon)
-    velocity = [
-        p * inverse_mass + jnp.asarray(config.dt * g, dtype)
-        for p, g in zip(momentum, config.gravity)
-    ]
+    # The epsilon is relative to the mean particle mass, so that it means the same for bodies in
+    # any units (the reference scene has unit masses, where this is DiffTaichi's 1e-10).
+    inverse_mass = 1.0 / (mass + config.mass_epsilon * jnp.mean(particle_mass))
+    return [p * inverse_mass for p in momentum], mass
+
+
+def _grid_update(config: SimConfig, grid, particle_mass):
+    """Momentum -> velocity, gravity, boundaries."""
+    velocity, mass = _grid_velocity(config, grid, particle_mass)
+    dtype = mass.dtype
+    velocity = [v + jnp.asarray(config.dt * g, dtype) for v, g in zip(velocity, config.gravity)]
     return apply_boundary(config, velocity), mass
 
 
@@ -80,7 +86,6 @@ def make_component_step(config: SimConfig, body: Body):
     dx, dt, dim = config.dx, config.dt, config.dim
 
     def step(state: Components, actuation, design: Design, token=None):
-        dtype = state.x[0].dtype
         mass = design.density * body.volume
         mu, lam = design.lame()
         F = linalg.matmul(linalg.add(linalg.identity(dim, mass), linalg.scale(state.C, dt)), state.F)
@@ -94,7 +99,7 @@ def make_component_step(config: SimConfig, body: Body):
         st = transfer.stencil(state.x, dx, config.grid_shape)
         momentum = [mass * v for v in state.v]
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
-        velocity, grid_mass = _grid_update(config, grid, dtype)
+        velocity, grid_mass = _grid_update(config, grid, mass)
         velocity = linalg.stack(velocity, -1)
         if token is not None:
             velocity = linalg.materialize(velocity, token)
@@ -135,7 +140,6 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
         st, mass, [mass * v for v in linalg.split_vec(state.v)],
         linalg.scale(linalg.split_mat(state.C), mass), config.dx, config.grid_shape,
     )
-    grid_mass, *momentum = linalg.unstack(grid, -1)
-    velocity = [p / (grid_mass + config.mass_epsilon) for p in momentum]
+    velocity, grid_mass = _grid_velocity(config, grid, mass)
     velocity = apply_boundary(config, velocity)
     return Grid(velocity=jnp.stack(velocity, axis=-1), mass=grid_mass)

@@ -1,0 +1,164 @@
+"""Physical invariants of the MPM step in 2D and 3D."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from litl.sim import Boundary, SimConfig, Wall, make_rollout, make_step, raise_if_unhealthy
+from litl.sim import linalg, transfer
+from litl.sim.boundary import apply_boundary
+
+from tests.sim.scenes import block
+
+MATERIALS = ["fixed_corotated", "neo_hookean"]
+idle = lambda params, state, grid_velocity: jnp.zeros(2, state.x.dtype)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_free_fall_matches_half_g_t_squared(dim, x64):
+    config, body, design, state = block(dim, n_grid=32, lower=0.5, size=0.2, gravity=-5.0,
+                                        dtype=jnp.float64)
+    steps = 60
+    final, trajectory = jax.jit(make_rollout(config, body, idle, steps))(None, design, state)
+    raise_if_unhealthy(trajectory.health)
+    t = steps * config.dt
+    drop = trajectory.observations[-1, 1] - jnp.mean(state.x[:, 1])
+    # Symplectic Euler gives g dt^2 n(n+1)/2 (up to the grid's mass epsilon, 1e-10, in nodes of
+    # tiny mass); g t^2/2 up to the O(dt) term g t dt / 2.
+    np.testing.assert_allclose(drop, -5.0 * config.dt**2 * steps * (steps + 1) / 2, rtol=2e-5)
+    np.testing.assert_allclose(drop, -5.0 * t**2 / 2, rtol=1.5 / steps)
+    # Uniform acceleration does not deform the body.
+    np.testing.assert_allclose(final.F, np.broadcast_to(np.eye(dim), final.F.shape), atol=1e-9)
+
+
+def test_gravity_may_point_anywhere(x64):
+    config, body, design, state = block(2, n_grid=32, lower=0.4, size=0.2, gravity=0.0,
+                                        dtype=jnp.float64)
+    config = SimConfig(config.grid_shape, config.dx, config.dt, gravity=(3.0, 0.0))
+    final, _ = make_rollout(config, body, idle, 20)(None, design, state)
+    np.testing.assert_allclose(jnp.mean(final.v, 0), [3.0 * 20 * config.dt, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("material", MATERIALS)
+def test_momentum_is_conserved_without_gravity(dim, material, x64):
+    rng = np.random.default_rng(0)
+    config, body, design, state = block(dim, n_grid=32, lower=0.4, size=0.2, gravity=0.0,
+                                        material=material, dtype=jnp.float64)
+    state = state.replace(v=jnp.asarray(rng.normal(0, 0.3, state.x.shape)))
+    mass = design.density * body.volume
+    params = jnp.asarray([0.7, -0.9])  # constant actuation: internal forces only
+    final, trajectory = make_rollout(config, body, lambda p, s, g: p, 100)(params, design, state)
+    raise_if_unhealthy(trajectory.health)
+    before = jnp.sum(mass[:, None] * state.v, 0)
+    after = jnp.sum(mass[:, None] * final.v, 0)
+    np.testing.assert_allclose(after, before, atol=1e-12 * float(jnp.sum(mass)))
+    assert float(jnp.max(jnp.abs(final.x - state.x))) > 1e-3  # it did move and deform
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_particle_to_grid_conserves_mass_and_momentum(dim, x64):
+    rng = np.random.default_rng(1)
+    n = 200
+    x = rng.uniform(0.3, 0.7, (n, dim))
+    mass = rng.uniform(0.5, 2.0, n)
+    momentum = rng.normal(size=(n, dim))
+    affine = rng.normal(size=(n, dim, dim))
+    st = transfer.stencil(linalg.split_vec(jnp.asarray(x)), 1 / 16, (16,) * dim)
+    grid = transfer.particles_to_grid(
+        st, jnp.asarray(mass), linalg.split_vec(jnp.asarray(momentum)),
+        linalg.split_mat(jnp.asarray(affine)), 1 / 16, (16,) * dim,
+    )
+    axes = tuple(range(dim))
+    np.testing.assert_allclose(jnp.sum(grid[..., 0], axes), mass.sum(), rtol=1e-12)
+    # The affine part sums to zero: quadratic B-splines reproduce linear functions exactly.
+    np.testing.assert_allclose(jnp.sum(grid[..., 1:], axes), momentum.sum(0), atol=1e-10)
+
+
+@pytest.mark.parametrize("dim,steps", [(2, 5000), (3, 5000)])
+def test_elastic_block_stays_bounded(dim, steps):
+    config, body, design, state = block(dim, n_grid=16 if dim == 3 else 24, lower=0.3, size=0.3,
+                                        gravity=-9.8, youngs=200.0)
+    params = jnp.asarray([0.5, -0.5])
+    final, trajectory = jax.jit(make_rollout(config, body, lambda p, s, g: p, steps))(
+        params, design, state)
+    raise_if_unhealthy(trajectory.health)
+    J = np.linalg.det(np.asarray(final.F))
+    assert 0.5 < J.min() and J.max() < 1.5
+    assert float(jnp.max(jnp.abs(final.v))) < 5.0
+    heights = trajectory.observations[:, 1]
+    assert float(heights.min()) > 3 * config.dx  # resting on the floor, not through it
+
+
+def _hit_floor(wall, v):
+    config = SimConfig((16, 16), 1 / 16, 1e-3, (0.0, 0.0), boundary=Boundary(
+        walls=(Wall("open"), Wall("open"), wall, Wall("open")), thickness=3))
+    velocity = [jnp.full((16, 16), v[0]), jnp.full((16, 16), v[1])]
+    out = apply_boundary(config, velocity)
+    return np.asarray(out[0][8, 1]), np.asarray(out[1][8, 1]), np.asarray(out[0][8, 8])
+
+
+def test_floor_kinds():
+    assert _hit_floor(Wall("sticky"), (2.0, -1.0))[:2] == (0.0, 0.0)
+    assert _hit_floor(Wall("slip"), (2.0, -1.0))[:2] == (2.0, 0.0)
+    assert _hit_floor(Wall("friction", 0.5), (2.0, -1.0))[:2] == (1.5, 0.0)
+    assert _hit_floor(Wall("friction", 5.0), (2.0, -1.0))[:2] == (0.0, 0.0)  # static friction
+    # Moving away from the floor is untouched, and nodes above the layer are never touched.
+    assert _hit_floor(Wall("sticky"), (2.0, 1.0))[:2] == (2.0, 1.0)
+    assert _hit_floor(Wall("sticky"), (2.0, -1.0))[2] == 2.0
+
+
+def test_friction_wall_is_coulomb_in_3d():
+    config = SimConfig((16, 16, 16), 1 / 16, 1e-3, (0.0, 0.0, 0.0), boundary=Boundary.box(
+        3, floor=Wall("friction", 0.25), sides="open"))
+    v = [jnp.full((16,) * 3, 3.0), jnp.full((16,) * 3, -2.0), jnp.full((16,) * 3, 4.0)]
+    out = [np.asarray(c)[8, 0, 8] for c in apply_boundary(config, v)]
+    # |v_t| = 5 drops by 0.25 * 2 = 0.5, keeping its direction.
+    np.testing.assert_allclose(out, [3.0 * 0.9, 0.0, 4.0 * 0.9], rtol=1e-6)
+
+
+def test_pinned_particles_and_pinned_grid_region_hold_still():
+    config, body, design, state = block(2, n_grid=32, lower=0.4, size=0.2, gravity=-9.8)
+    pinned = np.asarray(state.x[:, 0]) < 0.45
+    body = body.replace(pinned=jnp.asarray(pinned))
+    final, _ = make_rollout(config, body, idle, 200)(None, design, state)
+    np.testing.assert_array_equal(final.x[pinned], state.x[pinned])
+    assert float(jnp.mean(final.x[~pinned, 1] - state.x[~pinned, 1])) < -1e-3  # the rest sags
+    region = SimConfig(config.grid_shape, config.dx, config.dt, config.gravity,
+                       boundary=Boundary.box(2, pinned_boxes=[((0.0, 0.0), (0.5, 1.0))]))
+    _, grid = make_step(region, body.replace(pinned=jnp.zeros_like(body.pinned)))(
+        state.replace(v=jnp.ones_like(state.v)), jnp.zeros(2), design)
+    assert float(jnp.abs(grid.velocity[:16]).max()) == 0.0  # nodes at x <= 0.5
+    assert float(jnp.abs(grid.velocity[17:]).max()) > 0.0
+
+
+def test_non_square_grid():
+    config, body, design, state = block(2, n_grid=32, lower=0.3, size=0.15)
+    wide = SimConfig((64, 32), config.dx, config.dt, config.gravity)
+    final, trajectory = make_rollout(wide, body, idle, 100, snapshot_stride=50)(
+        None, design, state.replace(x=state.x + jnp.asarray([1.0, 0.0])))
+    raise_if_unhealthy(trajectory.health)
+    assert trajectory.snapshots.shape == (2, 64, 32, 2)
+    assert float(jnp.max(trajectory.snapshots[..., 0])) >= 0 and float(final.x[:, 0].min()) > 1.0
+
+
+def test_polar_rotation_3d_is_a_rotation_with_finite_gradient_at_identity(x64):
+    rng = np.random.default_rng(2)
+    F = np.eye(3) + 0.3 * rng.normal(size=(50, 3, 3))
+    F = F[np.linalg.det(F) > 0.1]
+    R = linalg.stack_mat(linalg.polar_rotation(linalg.split_mat(jnp.asarray(F))))
+    U, _, Vt = np.linalg.svd(F)
+    np.testing.assert_allclose(R, U @ Vt, atol=1e-10)
+
+    def energy(F):
+        R = linalg.stack_mat(linalg.polar_rotation(linalg.split_mat(F)))
+        return jnp.sum(jnp.sin(R) * jnp.arange(9.0).reshape(3, 3))
+
+    for F0 in [jnp.eye(3)[None], jnp.asarray(F[:3])]:
+        grad = jax.grad(energy)(F0)
+        assert np.all(np.isfinite(grad))
+        direction = jnp.asarray(rng.normal(size=F0.shape))
+        eps = 1e-6
+        numeric = (energy(F0 + eps * direction) - energy(F0 - eps * direction)) / (2 * eps)
+        np.testing.assert_allclose(jnp.vdot(grad, direction), numeric, rtol=1e-6, atol=1e-8)
