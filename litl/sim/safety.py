@@ -126,15 +126,17 @@ def raise_if_unhealthy(health, steps: int | None = None) -> None:
     problems = []
     for index, (bad, out) in enumerate(zip(nonfinite, escaped)):
         where = f" (batch entry {index})" if nonfinite.size > 1 else ""
-        if bad >= 0:
-            problems.append(
-                f"non-finite values (NaN/inf) first appeared at step {bad}{of}{where}: the simulation "
-                f"blew up; reduce dt, stiffness or actuator strength, or check the controller output"
-            )
-        elif out >= 0:
-            problems.append(
+        found = []
+        if out >= 0:
+            found.append((out, (
                 f"particles left the grid at step {out}{of}{where}: enlarge the grid, move the body "
-                f"away from the edges, or use closed walls instead of 'open' faces"
-            )
+                f"away from the edges, or use closed walls instead of 'open' faces")))
+        if bad >= 0:
+            found.append((bad, (
+                f"non-finite values (NaN/inf) first appeared at step {bad}{of}{where}: the "
+                f"simulation blew up; reduce dt, stiffness or actuator strength, or check the "
+                f"controller output")))
+        # The earlier failure is the cause; the later one usually its consequence.
+        problems.extend(message for _, message in sorted(found, key=lambda item: item[0]))
     if problems:
         raise SimulationError("; ".join(problems))
