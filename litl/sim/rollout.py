@@ -86,12 +86,15 @@ def make_rollout(
     snapshot_stride: int | None = None,
     observe: Callable[[SimState], Any] = centroid,
     remat: bool = True,
+    checkpoint_every: int | None = None,
 ):
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
     Pure and jittable; differentiate it with `jax.grad` through a loss of its outputs. With `remat`
     each step is recomputed in the backward pass, so reverse-mode memory is the particle state per
-    step (plus the recorded observations and snapshots) rather than every intermediate of every step.
+    step (plus the recorded observations and snapshots) rather than every intermediate of every
+    step. `checkpoint_every=K` cuts that further to one state per K steps plus K states (for
+    steps / K + K instead of `steps` states) at the price of one more forward pass.
 
     Args:
       config: static simulator configuration.
@@ -101,6 +104,8 @@ def make_rollout(
       snapshot_stride: record the grid velocity every this many steps (None: no snapshots).
       observe: per-step observation of the state, recorded after every step.
       remat: rematerialize each step in the backward pass (`jax.checkpoint`).
+      checkpoint_every: also checkpoint segments of this many steps (a multiple of
+        `snapshot_stride` when both are given); None: no segments.
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -111,7 +116,21 @@ def make_rollout(
             f"snapshot_stride must be an integer in [1, steps={steps}] or None, "
             f"got {snapshot_stride!r}"
         )
+    if checkpoint_every is not None and (
+        not isinstance(checkpoint_every, int) or checkpoint_every <= 0
+        or checkpoint_every % (snapshot_stride or 1)
+    ):
+        raise ValueError(
+            f"checkpoint_every must be a positive integer multiple of snapshot_stride "
+            f"({snapshot_stride}) or None, got {checkpoint_every!r}"
+        )
     step_fn = make_component_step(config, body)
+    # Steps run in units (a snapshot is taken after each unit), units in segments (each
+    # rematerialized as a whole when `checkpoint_every` is set).
+    unit = snapshot_stride or min(checkpoint_every or steps, steps)
+    n_units, rest_steps = divmod(steps, unit)
+    units_per_segment = min((checkpoint_every or steps) // unit, n_units)
+    n_segments, rest_units = divmod(n_units, units_per_segment)
 
     def rollout(policy_params, design: Design, initial_state: SimState):
         def one_step(carry, counter):
@@ -126,30 +145,42 @@ def make_rollout(
 
         if remat:
             one_step = jax.checkpoint(one_step)
+
+        def run_unit(carry, start):
+            carry, observed = jax.lax.scan(one_step, carry, start + _counter(unit))
+            return carry, (observed, carry[1] if snapshot_stride else None)
+
+        def run_segment(carry, start):
+            return jax.lax.scan(run_unit, carry, start + unit * _counter(units_per_segment))
+
+        if checkpoint_every:
+            run_segment = jax.checkpoint(run_segment)
+
         grid_velocity = rasterize(config, body, initial_state, design).velocity
         carry = (Components.unpack(initial_state), grid_velocity, Health.ok())
-        snapshots = jnp.zeros((0,) + grid_velocity.shape, grid_velocity.dtype)
-        if snapshot_stride is None:
-            carry, observations = jax.lax.scan(one_step, carry, _counter(steps))
-        else:
-            n_chunks, rest = divmod(steps, snapshot_stride)
-
-            def chunk(carry, _):
-                carry, observed = jax.lax.scan(one_step, carry, _counter(snapshot_stride))
-                return carry, (observed, carry[1])
-
-            carry, (observations, snapshots) = jax.lax.scan(chunk, carry, length=n_chunks)
-            observations = jax.tree.map(
-                lambda o: o.reshape((n_chunks * snapshot_stride,) + o.shape[2:]), observations
-            )
-            if rest:
-                carry, tail = jax.lax.scan(one_step, carry, _counter(rest))
-                observations = jax.tree.map(
-                    lambda a, b: jnp.concatenate([a, b]), observations, tail
-                )
-        final_components, _, health = carry
+        segment_steps = unit * units_per_segment
+        carry, (observed, snapshots) = jax.lax.scan(
+            run_segment, carry, segment_steps * _counter(n_segments))
+        flatten = lambda a, per: a.reshape((-1,) + a.shape[per:])
+        observations = [jax.tree.map(lambda o: flatten(o, 3), observed)]
+        snapshots = [flatten(snapshots, 2)] if snapshot_stride else []
+        done = n_segments * segment_steps
+        if rest_units:
+            carry, (observed, tail) = jax.lax.scan(run_unit, carry, done + unit * _counter(rest_units))
+            observations.append(jax.tree.map(lambda o: flatten(o, 2), observed))
+            snapshots += [tail] if snapshot_stride else []
+            done += rest_units * unit
+        if rest_steps:
+            carry, observed = jax.lax.scan(one_step, carry, done + _counter(rest_steps))
+            observations.append(observed)
+        final_components, last_grid_velocity, health = carry
+        concatenate = lambda *parts: jnp.concatenate(parts) if len(parts) > 1 else parts[0]
+        if not snapshots:
+            snapshots = [jnp.zeros((0,) + last_grid_velocity.shape, last_grid_velocity.dtype)]
         return final_components.pack(), Trajectory(
-            snapshots=snapshots, observations=observations, health=health
+            snapshots=concatenate(*snapshots),
+            observations=jax.tree.map(concatenate, *observations),
+            health=health,
         )
 
     return rollout

@@ -105,3 +105,29 @@ def test_second_call_does_not_recompile(scene):
     before = rollout._cache_size()
     rollout(sine_params(body.n_actuators), design.replace(density=design.density * 2), state)
     assert rollout._cache_size() == before
+
+
+@pytest.mark.parametrize("stride,every", [(None, 8), (4, 8), (5, 5), (None, 100)])
+def test_segment_checkpointing_changes_nothing_but_memory(stride, every, x64):
+    config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25, dtype=jnp.float64)
+    params = sine_params(body.n_actuators, jnp.float64)
+
+    def run(checkpoint_every):
+        rollout = make_rollout(config, body, sine_policy, 37, snapshot_stride=stride,
+                               checkpoint_every=checkpoint_every)
+        loss = lambda p: (jnp.mean(rollout(p, design, state)[0].x[:, 0]), rollout(p, design, state))
+        return jax.jit(jax.value_and_grad(loss, has_aux=True))(params)
+
+    (v1, out1), g1 = run(None)
+    (v2, out2), g2 = run(every)
+    np.testing.assert_allclose(v1, v2, rtol=1e-12)
+    for a, b in zip(jax.tree.leaves((out1, g1)), jax.tree.leaves((out2, g2))):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+    assert out2[1].observations.shape == (37, 2)
+    assert out2[1].snapshots.shape[0] == (37 // stride if stride else 0)
+
+
+def test_checkpoint_every_must_fit_the_stride(scene):
+    config, body, design, state = scene
+    with pytest.raises(ValueError, match="multiple of snapshot_stride"):
+        make_rollout(config, body, sine_policy, 20, snapshot_stride=3, checkpoint_every=4)
