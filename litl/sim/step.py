@@ -99,6 +99,12 @@ def make_component_step(config: SimConfig, body: Body):
         st = transfer.stencil(state.x, dx, config.grid_shape)
         momentum = [mass * v for v in state.v]
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
+        if token is not None and dim == 3:
+            # In reverse mode this materializes the grid's cotangent before the scatter's
+            # transpose gathers it, instead of recomputing the grid update's backward per read.
+            # Measured: quadruped3d forward+backward 41 s -> 30 s; in 2D it costs more than it
+            # saves (walker 0.78 s -> 0.93 s), so only in 3D.
+            grid = linalg.materialize(grid, token)
         velocity, grid_mass = _grid_update(config, grid, mass)
         velocity = linalg.stack(velocity, -1)
         if token is not None:
