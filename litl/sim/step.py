@@ -96,6 +96,11 @@ def make_component_step(config: SimConfig, body: Body):
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).
         stress_scale = (-dt * 4.0 / dx**2) * body.volume
         affine = linalg.add(linalg.scale(tau, stress_scale), linalg.scale(state.C, mass))
+        if token is not None:
+            # Every stencil node's momentum reads all of A, and in reverse mode every component of
+            # the stress derivative reads all of A's cotangent: computed once into buffers here
+            # instead of once per reader (measured: quadruped3d forward+backward 30 s -> X s).
+            affine = linalg.materialize(affine, token)
         st = transfer.stencil(state.x, dx, config.grid_shape)
         momentum = [mass * v for v in state.v]
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
