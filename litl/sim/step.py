@@ -84,6 +84,10 @@ def make_component_step(config: SimConfig, body: Body):
     """
     stress_model = MODELS[config.material]
     dx, dt, dim = config.dx, config.dt, config.dim
+    # Buffering the grid and the node weights (and, in reverse mode, their cotangents) pays off
+    # in 3D (quadruped3d forward+backward 24 s -> 22.5 s for the weights, 41 s -> 30 s for the
+    # grid) but costs more than it saves in 2D (walker 0.72 s -> 0.78 s and 0.78 s -> 0.93 s).
+    buffer_nodes = dim == 3
 
     def step(state: Components, actuation, design: Design, token=None):
         mass = design.density * body.volume
@@ -99,16 +103,14 @@ def make_component_step(config: SimConfig, body: Body):
         if token is not None:
             # Every stencil node's momentum reads all of A, and in reverse mode every component of
             # the stress derivative reads all of A's cotangent: computed once into buffers here
-            # instead of once per reader (measured: quadruped3d forward+backward 30 s -> X s).
+            # instead of once per reader (measured: quadruped3d forward+backward 30 s -> 24 s).
             affine = linalg.materialize(affine, token)
-        st = transfer.stencil(state.x, dx, config.grid_shape)
+        st = transfer.stencil(state.x, dx, config.grid_shape, token if buffer_nodes else None)
         momentum = [mass * v for v in state.v]
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
-        if token is not None and dim == 3:
-            # In reverse mode this materializes the grid's cotangent before the scatter's
-            # transpose gathers it, instead of recomputing the grid update's backward per read.
-            # Measured: quadruped3d forward+backward 41 s -> 30 s; in 2D it costs more than it
-            # saves (walker 0.78 s -> 0.93 s), so only in 3D.
+        if token is not None and buffer_nodes:
+            # In reverse mode: the grid's cotangent is formed once before the scatter's transpose
+            # gathers it, instead of the grid update's backward being recomputed per read.
             grid = linalg.materialize(grid, token)
         velocity, grid_mass = _grid_update(config, grid, mass)
         velocity = linalg.stack(velocity, -1)

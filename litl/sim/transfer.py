@@ -31,6 +31,7 @@ class Stencil:
 
     base: jnp.ndarray
     weights: list
+    node_weights: list
     fx: list
     inside: jnp.ndarray
 
@@ -39,16 +40,16 @@ class Stencil:
         return len(self.fx)
 
     def nodes(self):
-        """Yield (offset tuple, weight (n,)) for the 3^d stencil nodes in window (C) order."""
-        for offset in itertools.product(range(3), repeat=self.dim):
-            weight = self.weights[0][offset[0]]
-            for axis in range(1, self.dim):
-                weight = weight * self.weights[axis][offset[axis]]
-            yield offset, weight
+        """(offset tuple, weight (n,)) for the 3^d stencil nodes in window (C) order."""
+        return zip(itertools.product(range(3), repeat=self.dim), self.node_weights)
 
 
-def stencil(x, dx, grid_shape) -> Stencil:
-    """Quadratic B-spline stencil of particles at positions x (d arrays (n,))."""
+def stencil(x, dx, grid_shape, token=None) -> Stencil:
+    """Quadratic B-spline stencil of particles at positions x (d arrays (n,)).
+
+    With a `token` (see `linalg.materialize`) the 3^d node weights are computed into buffers, and
+    so are their cotangents in reverse mode, which every position component's cotangent reads.
+    """
     bases, fx, inside = [], [], True
     for xa, n in zip(x, grid_shape):
         cells = xa / dx - 0.5
@@ -60,7 +61,16 @@ def stencil(x, dx, grid_shape) -> Stencil:
         bases.append(base.astype(jnp.int32))
         fx.append(cells + 0.5 - base)
     weights = [[0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2] for f in fx]
-    return Stencil(base=jnp.stack(bases, -1), weights=weights, fx=fx, inside=inside)
+    node_weights = []
+    for offset in itertools.product(range(3), repeat=len(fx)):
+        weight = weights[0][offset[0]]
+        for axis in range(1, len(fx)):
+            weight = weight * weights[axis][offset[axis]]
+        node_weights.append(weight)
+    if token is not None:
+        node_weights = linalg.materialize(node_weights, token)
+    return Stencil(base=jnp.stack(bases, -1), weights=weights, node_weights=node_weights, fx=fx,
+                   inside=inside)
 
 
 def _window_numbers(dim):
