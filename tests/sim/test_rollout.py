@@ -16,9 +16,9 @@ def scene():
     return block(2, n_grid=24, lower=0.3, size=0.25)
 
 
-def test_snapshots_are_strided_grid_velocities(scene):
-    config, body, design, state = scene
-    params = sine_params(body.n_actuators)
+def test_snapshots_are_strided_grid_velocities(x64):
+    config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25, dtype=jnp.float64)
+    params = sine_params(body.n_actuators, jnp.float64)
     final, trajectory = jax.jit(make_rollout(config, body, sine_policy, 23, snapshot_stride=5))(
         params, design, state)
     assert trajectory.snapshots.shape == (4, 24, 24, 2)
@@ -32,9 +32,9 @@ def test_snapshots_are_strided_grid_velocities(scene):
         grid_velocity = grid.velocity
         if (index + 1) % 5 == 0:
             np.testing.assert_allclose(trajectory.snapshots[(index + 1) // 5 - 1], grid.velocity,
-                                       atol=1e-5)
-        np.testing.assert_allclose(trajectory.observations[index], jnp.mean(s.x, 0), atol=1e-6)
-    np.testing.assert_allclose(final.x, s.x, atol=1e-5)
+                                       atol=1e-12)
+        np.testing.assert_allclose(trajectory.observations[index], jnp.mean(s.x, 0), atol=1e-12)
+    np.testing.assert_allclose(final.x, s.x, atol=1e-12)
     assert int(final.step) == 23
 
 
