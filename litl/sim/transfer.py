@@ -78,6 +78,21 @@ def _window_numbers(dim):
     return window_dims, tuple(range(dim))
 
 
+def _pad_channels(a):
+    """Pad the last axis to a power of two.
+
+    XLA:CPU's windowed scatter runs ~3x slower with 3-channel windows than with 4 (4.5 ms vs 1.6 ms
+    for 28k particles on 64^3). Used for the 3D velocity gather, whose transpose is such a scatter
+    (quadruped3d forward+backward 22.5 s -> 20.2 s); padding 2D's 3-channel P2G scatter the same
+    way measured no faster in the whole step, so it is left as is.
+    """
+    channels = a.shape[-1]
+    padded = 1 << (channels - 1).bit_length()
+    if padded == channels:
+        return a
+    return jnp.pad(a, [(0, 0)] * (a.ndim - 1) + [(0, padded - channels)])
+
+
 def scatter_to_grid(st: Stencil, values, grid_shape):
     """Sum per-node particle values into the grid.
 
@@ -105,13 +120,16 @@ def gather_from_grid(st: Stencil, grid):
     numbers = jax.lax.GatherDimensionNumbers(
         offset_dims=window, collapsed_slice_dims=(), start_index_map=axes
     )
-    return jax.lax.gather(
+    channels = grid.shape[-1]
+    grid = _pad_channels(grid)  # so that the transpose (a scatter) is fast, see `_pad_channels`
+    window = jax.lax.gather(
         grid,
         st.base,
         numbers,
         slice_sizes=(3,) * st.dim + grid.shape[-1:],
         mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
     )
+    return window[..., :channels]
 
 
 def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape):
