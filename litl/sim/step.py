@@ -107,7 +107,8 @@ def make_component_step(config: SimConfig, body: Body):
             affine = linalg.materialize(affine, token)
         st = transfer.stencil(state.x, dx, config.grid_shape, token if buffer_nodes else None)
         momentum = [mass * v for v in state.v]
-        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape)
+        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape,
+                                          token if buffer_nodes else None)
         if token is not None and buffer_nodes:
             # In reverse mode: the grid's cotangent is formed once before the scatter's transpose
             # gathers it, instead of the grid update's backward being recomputed per read.
@@ -116,7 +117,7 @@ def make_component_step(config: SimConfig, body: Body):
         velocity = linalg.stack(velocity, -1)
         if token is not None:
             velocity = linalg.materialize(velocity, token)
-        v, C = transfer.grid_to_particles(st, velocity, dx)
+        v, C = transfer.grid_to_particles(st, velocity, dx, token if buffer_nodes else None)
         free = ~body.pinned
         v = [jnp.where(free, c, 0.0) for c in v]
         C = [[jnp.where(free, c, 0.0) for c in row] for row in C]

@@ -132,7 +132,7 @@ def gather_from_grid(st: Stencil, grid):
     return window[..., :channels]
 
 
-def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape):
+def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token=None):
     """MLS-MPM particle-to-grid transfer: node i gets w_ip (m_p, m_p v_p + A_p (x_i - x_p)).
 
     Args:
@@ -151,6 +151,8 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape):
     # the same for all nodes and folds into the momentum once per particle.
     affine_fx = linalg.matvec(affine, st.fx)
     shifted = [p - dx * a for p, a in zip(momentum, affine_fx)]
+    if token is not None:  # its cotangent is read by every position component's cotangent
+        shifted = linalg.materialize(shifted, token)
     columns = [[dx * affine[c][k] for k in range(dim)] for c in range(dim)]
     values = []
     for offset, weight in st.nodes():
@@ -165,7 +167,7 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape):
     return scatter_to_grid(st, values, grid_shape)
 
 
-def grid_to_particles(st: Stencil, grid_velocity, dx):
+def grid_to_particles(st: Stencil, grid_velocity, dx, token=None):
     """MLS-MPM grid-to-particle transfer.
 
     Args:
@@ -188,5 +190,7 @@ def grid_to_particles(st: Stencil, grid_velocity, dx):
             for k in range(dim):
                 if offset[k]:
                     moment[c][k] = moment[c][k] + offset[k] * wv
+    if token is not None:  # read by C and, in reverse mode, by every position cotangent
+        v = linalg.materialize(v, token)
     C = [[(4.0 / dx) * (moment[c][k] - v[c] * st.fx[k]) for k in range(dim)] for c in range(dim)]
     return v, C
