@@ -39,12 +39,17 @@ class Health:
     def ok(cls) -> "Health":
         return cls(jnp.array(-1, jnp.int32), jnp.array(-1, jnp.int32))
 
-    def record(self, config: SimConfig, state: SimState, step_index) -> "Health":
-        finite = jnp.all(jnp.isfinite(state.x)) & jnp.all(jnp.isfinite(state.v))
-        finite &= jnp.all(jnp.isfinite(state.F))
-        cells = state.x / config.dx - 0.5
-        upper = jnp.asarray(config.grid_shape, state.x.dtype) - 3
-        inside = jnp.all((cells >= 0) & (cells < upper + 1))
+    def record(self, config: SimConfig, state: Components, step_index) -> "Health":
+        """Update with the state after step `step_index` (per-component form, see `Components`)."""
+        # One reduction each: NaN and infinity survive the elementwise sum and the logical and.
+        total = sum([*state.x, *state.v, *(f for row in state.F for f in row)])
+        finite = jnp.all(jnp.isfinite(total))
+        inside = True
+        for x, n in zip(state.x, config.grid_shape):
+            # The next step's stencil starts at floor(x / dx - 0.5) and must lie in [0, n - 3].
+            cells = x / config.dx - 0.5
+            inside = inside & (cells >= 0) & (cells < n - 2)
+        inside = jnp.all(inside)
         first = lambda seen, good: jnp.where((seen < 0) & ~good, step_index, seen)
         return Health(
             first_nonfinite_step=first(self.first_nonfinite_step, finite),
@@ -139,9 +144,8 @@ def make_rollout(
             actuation = policy(policy_params, components.pack(), grid_velocity)
             index = components.step
             components, grid = step_fn(components, actuation, design, counter)
-            state = components.pack()
-            health = health.record(config, state, index)
-            return (components, grid.velocity, health), observe(state)
+            health = health.record(config, components, index)
+            return (components, grid.velocity, health), observe(components.pack())
 
         if remat:
             one_step = jax.checkpoint(one_step)
