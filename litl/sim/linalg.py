@@ -162,9 +162,12 @@ def cofactor(a: Mat) -> Mat:
 def polar_rotation(F: Mat) -> Mat:
     """Rotation R of the polar decomposition F = R S (det F > 0).
 
-    2D uses the closed form (as Taichi's `polar_decompose`); 3D a scaled Newton iteration whose
-    derivative is given analytically and stays finite at repeated singular values (F = I included),
-    where the SVD's derivative is NaN.
+    2D uses the closed form (as Taichi's `polar_decompose`); 3D ten steps of Higham's scaled Newton
+    iteration (agrees with U V^T from the SVD to ~1e-10 in float64 for det F > 0.1 and
+    |F - I| ~ 0.3), whose derivative is given analytically and stays finite at repeated singular
+    values (F = I included), where the SVD's derivative is NaN. For an inverted 3D particle
+    (det F < 0) the result is the orthogonal polar factor, a reflection; such states are far
+    outside what a stable simulation reaches.
     """
     if len(F) == 2:
         return _polar_rotation_2d(F)
