@@ -9,6 +9,7 @@ arithmetic uses per-component (n,) arrays (see `litl.sim.linalg`).
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import jax
@@ -78,6 +79,88 @@ def _window_numbers(dim):
     return window_dims, tuple(range(dim))
 
 
+def _raw_scatter(base, values, grid_shape):
+    numbers = jax.lax.ScatterDimensionNumbers(*(lambda w, a: (w, (), a))(*_window_numbers(base.shape[-1])))
+    grid = jnp.zeros(tuple(grid_shape) + values.shape[-1:], values.dtype)
+    return jax.lax.scatter_add(
+        grid, base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS
+    )
+
+
+def _raw_gather(base, grid):
+    window, axes = _window_numbers(base.shape[-1])
+    numbers = jax.lax.GatherDimensionNumbers(
+        offset_dims=window, collapsed_slice_dims=(), start_index_map=axes
+    )
+    return jax.lax.gather(
+        grid, base, numbers, slice_sizes=(3,) * base.shape[-1] + grid.shape[-1:],
+        mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
+    )
+
+
+def _fold_batch(axis_size, in_batched, base, other, grid_rows):
+    """Batched windows -> one unbatched set over grids stacked along axis 0."""
+    if not in_batched[0]:
+        base = jnp.broadcast_to(base, (axis_size,) + base.shape)
+    if not in_batched[1]:
+        other = jnp.broadcast_to(other, (axis_size,) + other.shape)
+    shift = (jnp.arange(axis_size, dtype=base.dtype) * grid_rows)[:, None]
+    base = base.at[..., 0].add(shift)
+    return base.reshape((-1,) + base.shape[2:]), other
+
+
+@functools.lru_cache(maxsize=None)
+def _window_transfers(grid_shape):
+    """Windowed scatter/gather for one grid shape, batched by stacking grids along axis 0.
+
+    Under `vmap`, JAX's generic scatter batching adds the batch as an extra indexed axis, which
+    XLA:CPU executes with layout copies of every update window; stacking the batch's grids into
+    one taller grid keeps it a plain windowed scatter/gather.
+    """
+    rows = grid_shape[0]
+
+    @jax.custom_batching.custom_vmap
+    def scatter(base, values):
+        return _raw_scatter(base, values, grid_shape)
+
+    @scatter.def_vmap
+    def _scatter_batched(axis_size, in_batched, base, values):
+        base, values = _fold_batch(axis_size, in_batched, base, values, rows)
+        values = values.reshape((-1,) + values.shape[2:])
+        out = _raw_scatter(base, values, (axis_size * rows,) + tuple(grid_shape[1:]))
+        return out.reshape((axis_size,) + tuple(grid_shape) + out.shape[-1:]), True
+
+    @jax.custom_batching.custom_vmap
+    def gather(base, grid):
+        return _raw_gather(base, grid)
+
+    @gather.def_vmap
+    def _gather_batched(axis_size, in_batched, base, grid):
+        n = base.shape[-2]
+        base, grid = _fold_batch(axis_size, in_batched, base, grid, rows)
+        out = _raw_gather(base, grid.reshape((-1,) + grid.shape[2:]))
+        return out.reshape((axis_size, n) + out.shape[1:]), True
+
+    @jax.custom_vjp
+    def scatter_diff(base, values):
+        return scatter(base, values)
+
+    scatter_diff.defvjp(
+        lambda base, values: (scatter(base, values), base),
+        lambda base, cotangent: (None, gather_diff(base, cotangent)),
+    )
+
+    @jax.custom_vjp
+    def gather_diff(base, grid):
+        return gather(base, grid)
+
+    gather_diff.defvjp(
+        lambda base, grid: (gather(base, grid), base),
+        lambda base, cotangent: (None, scatter_diff(base, cotangent)),
+    )
+    return scatter_diff, gather_diff
+
+
 def _pad_channels(a):
     """Pad the last axis to a power of two.
 
@@ -104,32 +187,16 @@ def scatter_to_grid(st: Stencil, values, grid_shape):
     Returns:
       (*grid_shape, c) grid of summed values.
     """
-    window, axes = _window_numbers(st.dim)
-    numbers = jax.lax.ScatterDimensionNumbers(
-        update_window_dims=window, inserted_window_dims=(), scatter_dims_to_operand_dims=axes
-    )
-    grid = jnp.zeros(tuple(grid_shape) + values.shape[-1:], values.dtype)
-    return jax.lax.scatter_add(
-        grid, st.base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS
-    )
+    scatter, _ = _window_transfers(tuple(grid_shape))
+    return scatter(st.base, values)
 
 
 def gather_from_grid(st: Stencil, grid):
     """Read each particle's stencil of a (*grid_shape, c) grid: (n, 3, ..., 3, c)."""
-    window, axes = _window_numbers(st.dim)
-    numbers = jax.lax.GatherDimensionNumbers(
-        offset_dims=window, collapsed_slice_dims=(), start_index_map=axes
-    )
     channels = grid.shape[-1]
     grid = _pad_channels(grid)  # so that the transpose (a scatter) is fast, see `_pad_channels`
-    window = jax.lax.gather(
-        grid,
-        st.base,
-        numbers,
-        slice_sizes=(3,) * st.dim + grid.shape[-1:],
-        mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
-    )
-    return window[..., :channels]
+    _, gather = _window_transfers(tuple(grid.shape[:-1]))
+    return gather(st.base, grid)[..., :channels]
 
 
 def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token=None):
