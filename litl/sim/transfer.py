@@ -80,7 +80,10 @@ def _window_numbers(dim):
 
 
 def _raw_scatter(base, values, grid_shape):
-    numbers = jax.lax.ScatterDimensionNumbers(*(lambda w, a: (w, (), a))(*_window_numbers(base.shape[-1])))
+    window, axes = _window_numbers(base.shape[-1])
+    numbers = jax.lax.ScatterDimensionNumbers(
+        update_window_dims=window, inserted_window_dims=(), scatter_dims_to_operand_dims=axes
+    )
     grid = jnp.zeros(tuple(grid_shape) + values.shape[-1:], values.dtype)
     return jax.lax.scatter_add(
         grid, base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS
