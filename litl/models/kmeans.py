@@ -1,0 +1,68 @@
+"""The dynamics-oblivious baseline observer: k-means clusters of the rest configuration.
+
+Particles are clustered once, by Euclidean distance of their rest positions (seeded k-means++
+initialization, then Lloyd iterations). At every step the observer's features are the mean position
+and the mean velocity of each cluster along each axis, as in the paper's baseline.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+
+@struct.dataclass
+class KMeansObserver:
+    """Cluster membership as a fixed linear map.
+
+    Attributes:
+      averaging: (k, n) row-normalized membership: row c averages the particles of cluster c.
+      centers: (k, d) cluster centres of the rest configuration.
+    """
+
+    averaging: jnp.ndarray
+    centers: jnp.ndarray
+
+    @property
+    def n_features(self) -> int:
+        k, d = self.centers.shape
+        return 2 * k * d
+
+
+def fit_kmeans(positions, k: int, seed: int = 0, iterations: int = 100) -> KMeansObserver:
+    """Cluster rest positions (n, d) into k clusters; deterministic for a given seed."""
+    x = np.asarray(positions, np.float64)
+    if x.ndim != 2 or x.shape[1] not in (2, 3):
+        raise ValueError(f"positions must have shape (n_particles, 2 or 3), got {x.shape}")
+    if not isinstance(k, int) or not 1 <= k <= len(x):
+        raise ValueError(f"k must be an integer in [1, n_particles={len(x)}], got {k!r}")
+    rng = np.random.default_rng(seed)
+    centers = [x[rng.integers(len(x))]]
+    for _ in range(1, k):  # k-means++: next centre with probability ~ squared distance
+        distance = np.min(((x[:, None] - np.asarray(centers)[None]) ** 2).sum(-1), axis=1)
+        total = distance.sum()
+        pick = rng.choice(len(x), p=distance / total) if total > 0 else rng.integers(len(x))
+        centers.append(x[pick])
+    centers = np.asarray(centers)
+    for _ in range(iterations):
+        labels = np.argmin(((x[:, None] - centers[None]) ** 2).sum(-1), axis=1)
+        updated = np.stack([x[labels == c].mean(0) if np.any(labels == c) else centers[c]
+                            for c in range(k)])
+        if np.allclose(updated, centers):
+            break
+        centers = updated
+    labels = np.argmin(((x[:, None] - centers[None]) ** 2).sum(-1), axis=1)
+    membership = (labels[None, :] == np.arange(k)[:, None]).astype(np.float64)
+    counts = membership.sum(1, keepdims=True)
+    averaging = np.divide(membership, counts, out=np.zeros_like(membership), where=counts > 0)
+    dtype = jnp.asarray(positions).dtype
+    return KMeansObserver(averaging=jnp.asarray(averaging, dtype), centers=jnp.asarray(centers, dtype))
+
+
+def kmeans_features(observer: KMeansObserver, state, grid_velocity=None):
+    """(2 k d,) features: every cluster's mean position, then every cluster's mean velocity."""
+    del grid_velocity  # dynamics-oblivious: reads particles only
+    positions = observer.averaging @ state.x
+    velocities = observer.averaging @ state.v
+    return jnp.concatenate([positions.reshape(-1), velocities.reshape(-1)])

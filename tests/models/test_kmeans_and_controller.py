@@ -1,0 +1,82 @@
+"""k-means baseline observer and MLP controller (parts of the observers/controllers issue)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from litl.models.controller import MLPController
+from litl.models.kmeans import fit_kmeans, kmeans_features
+from litl.sim import SimState
+
+
+def test_kmeans_features_equal_hand_computed_centroids():
+    # Two well separated blobs of 3 particles each.
+    x = np.array([[0.1, 0.1], [0.2, 0.1], [0.1, 0.2], [0.8, 0.8], [0.9, 0.8], [0.8, 0.9]])
+    v = np.array([[1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [0.0, -1.0], [0.0, -2.0], [0.0, -3.0]])
+    observer = fit_kmeans(jnp.asarray(x), k=2, seed=0)
+    features = kmeans_features(observer, SimState.at_rest(jnp.asarray(x), jnp.asarray(v)))
+    assert features.shape == (observer.n_features,) == (8,)
+    positions, velocities = np.asarray(features[:4]).reshape(2, 2), np.asarray(features[4:]).reshape(2, 2)
+    order = np.argsort(positions[:, 0])  # cluster numbering is arbitrary
+    np.testing.assert_allclose(positions[order], [[0.4 / 3, 0.4 / 3], [2.5 / 3, 2.5 / 3]], atol=1e-6)
+    np.testing.assert_allclose(velocities[order], [[2.0, 0.0], [0.0, -2.0]], atol=1e-6)
+
+
+def test_kmeans_is_seeded_and_checks_its_input():
+    x = np.random.default_rng(0).uniform(size=(200, 3))
+    a, b = fit_kmeans(x, 5, seed=3), fit_kmeans(x, 5, seed=3)
+    np.testing.assert_array_equal(a.averaging, b.averaging)
+    np.testing.assert_allclose(np.asarray(a.averaging).sum(1), 1.0, rtol=1e-6)
+    with pytest.raises(ValueError, match="k must be"):
+        fit_kmeans(x, 0)
+    with pytest.raises(ValueError, match="positions must have shape"):
+        fit_kmeans(x[:, :1], 2)
+
+
+def test_controller_outputs_bounded_actuation_and_uses_every_input():
+    controller = MLPController(n_actuators=3, widths=(16, 16), period=0.5)
+    features, task = jnp.ones(6), jnp.asarray([0.2, -0.4])
+    params = controller.init(jax.random.key(0), features, task, 0.0)
+    out = controller.apply(params, features, task, 0.1)
+    assert out.shape == (3,) and bool(jnp.all(jnp.abs(out) <= 1.0))
+    grads = jax.grad(lambda f, t, s: jnp.sum(controller.apply(params, f, t, s)), argnums=(0, 1, 2))(
+        features, task, 0.1)
+    assert all(float(jnp.abs(g).sum()) > 0 for g in grads)
+
+
+def test_controller_rejects_bad_settings():
+    with pytest.raises(ValueError, match="unknown activation"):
+        MLPController(n_actuators=2, activation="sigmoidish")
+    with pytest.raises(ValueError, match="period must be positive"):
+        MLPController(n_actuators=2, period=0.0)
+    controller = MLPController(n_actuators=2, period=1.0)
+    with pytest.raises(ValueError, match="pass the simulated time"):
+        controller.init(jax.random.key(0), jnp.ones(3))
+
+
+def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():
+    from litl.sim import make_rollout
+    from tests.sim.scenes import block
+
+    config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25)
+    observer = fit_kmeans(state.x, k=4, seed=0)
+    controller = MLPController(n_actuators=body.n_actuators, widths=(16,), period=0.05)
+    params = controller.init(jax.random.key(1), jnp.zeros(observer.n_features), None, 0.0)
+
+    def policy(p, s, grid_velocity):
+        return controller.apply(p, kmeans_features(observer, s), None, s.step * config.dt)
+
+    rollout = make_rollout(config, body, policy, 60)
+
+    def loss(p, youngs):
+        final, trajectory = rollout(p, design.replace(youngs_modulus=youngs), state)
+        return -jnp.mean(final.x[:, 0]), trajectory.health
+
+    (value, health), grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1), has_aux=True))(
+        params, design.youngs_modulus)
+    assert int(health.first_nonfinite_step) == -1 and np.isfinite(float(value))
+    leaves = jax.tree.leaves(grads)
+    assert all(np.all(np.isfinite(g)) for g in leaves)
+    assert float(sum(jnp.abs(g).sum() for g in jax.tree.leaves(grads[0]))) > 0
+    assert float(jnp.abs(grads[1]).sum()) > 0
