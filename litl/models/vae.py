@@ -1,0 +1,201 @@
+"""Convolutional (variational) autoencoder of grid velocity fields, 2D and 3D (paper Fig. 3).
+
+Input: a grid velocity field (*grid_shape, d) with d = 2 or 3 channels.
+  * Size: the field is zero-padded at the high end of every axis up to a multiple of 2^5, since the
+    encoder halves it five times; zero is what an empty grid holds, so padding adds no signal. The
+    decoder's output is cropped back.
+  * Normalization: velocities are divided by `scale`, a non-trained observer parameter set from the
+    training data (the RMS velocity of occupied nodes in the replay buffer) at every learning phase,
+    so the encoder's input keeps unit size while the robot learns to move faster, and stays fixed
+    within an episode.
+Encoder: five stride-2 convolutions with ReLU, flattened to the mean and log-variance of r latents
+(the mean only for the plain autoencoder). Decoder: a dense layer back to the coarsest grid, then five
+stride-2 transposed convolutions, ReLU between them and none at the end.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from flax import struct
+
+LEVELS = 5
+INITIAL_LOG_VARIANCE = -4.0
+
+
+def padded_shape(grid_shape) -> tuple[int, ...]:
+    """Grid shape rounded up per axis to a multiple of 2^5."""
+    step = 2**LEVELS
+    return tuple(-(-n // step) * step for n in grid_shape)
+
+
+def pad_field(field, grid_shape):
+    """(..., *grid_shape, d) -> (..., *padded_shape, d), zeros at the high ends."""
+    target = padded_shape(grid_shape)
+    lead = field.ndim - len(grid_shape) - 1
+    pads = [(0, 0)] * lead + [(0, t - n) for n, t in zip(grid_shape, target)] + [(0, 0)]
+    return jnp.pad(field, pads)
+
+
+class ConvAutoencoder(nn.Module):
+    """Encoder/decoder of velocity fields; `variational=False` gives the plain autoencoder.
+
+    Attributes:
+      grid_shape: nodes per axis of the simulator grid (2 or 3 axes).
+      latent_dim: r, the number of latent variables.
+      channels: feature channels of the five encoder convolutions (mirrored by the decoder).
+      variational: VAE (mean and log-variance) or plain AE (a point code).
+      kernel: convolution kernel size along each axis.
+    """
+
+    grid_shape: tuple[int, ...]
+    latent_dim: int = 8
+    channels: Sequence[int] = (8, 16, 32, 32, 64)
+    variational: bool = True
+    kernel: int = 3
+
+    def __post_init__(self):
+        if len(self.grid_shape) not in (2, 3):
+            raise ValueError(f"grid_shape must have 2 or 3 axes, got {self.grid_shape!r}")
+        if len(self.channels) != LEVELS or any(c < 1 for c in self.channels):
+            raise ValueError(f"channels must be {LEVELS} positive widths, got {self.channels!r}")
+        if self.latent_dim < 1:
+            raise ValueError(f"latent_dim must be positive, got {self.latent_dim!r}")
+        super().__post_init__()
+
+    @property
+    def dim(self) -> int:
+        return len(self.grid_shape)
+
+    def setup(self):
+        window = (self.kernel,) * self.dim
+        strides = (2,) * self.dim
+        self.encoder_convs = [nn.Conv(c, window, strides, padding="SAME") for c in self.channels]
+        self.to_mean = nn.Dense(self.latent_dim)
+        # The posterior starts narrow (sigma ~ 0.1): with sigma ~ 1 the sampling noise swamps the
+        # freshly initialized means and the decoder first learns to ignore the code.
+        self.to_log_variance = nn.Dense(
+            self.latent_dim, bias_init=nn.initializers.constant(INITIAL_LOG_VARIANCE)
+        ) if self.variational else None
+        coarse = tuple(n // 2**LEVELS for n in padded_shape(self.grid_shape))
+        self.coarse_shape = coarse + (self.channels[-1],)
+        self.from_latent = nn.Dense(int(np.prod(self.coarse_shape)))
+        out_channels = list(self.channels[-2::-1]) + [self.dim]
+        self.decoder_convs = [
+            nn.ConvTranspose(c, window, strides, padding="SAME") for c in out_channels
+        ]
+
+    def encode(self, field):
+        """(B, *grid_shape, d) normalized fields -> mean (B, r), log-variance (B, r) or None."""
+        h = pad_field(field, self.grid_shape)
+        for conv in self.encoder_convs:
+            h = nn.relu(conv(h))
+        h = h.reshape(h.shape[0], -1)
+        log_variance = self.to_log_variance(h) if self.variational else None
+        return self.to_mean(h), log_variance
+
+    def decode(self, z):
+        """(B, r) latents -> (B, *grid_shape, d) normalized fields."""
+        h = nn.relu(self.from_latent(z)).reshape((z.shape[0],) + self.coarse_shape)
+        for index, conv in enumerate(self.decoder_convs):
+            h = conv(h)
+            if index < LEVELS - 1:
+                h = nn.relu(h)
+        crop = (slice(None),) + tuple(slice(0, n) for n in self.grid_shape)
+        return h[crop]
+
+    def __call__(self, field, key=None):
+        """Reconstruct; with a key, a VAE samples z = mean + sigma * noise (else z = mean)."""
+        mean, log_variance = self.encode(field)
+        z = mean
+        if self.variational and key is not None:
+            z = mean + jnp.exp(0.5 * log_variance) * jax.random.normal(key, mean.shape, mean.dtype)
+        return self.decode(z), mean, log_variance
+
+
+@struct.dataclass
+class AutoencoderParams:
+    """Observer parameters: network weights and the (non-trained) input scale.
+
+    Attributes:
+      network: flax parameters of `ConvAutoencoder`.
+      scale: () velocity scale the fields are divided by.
+    """
+
+    network: dict
+    scale: jnp.ndarray
+
+
+def init_autoencoder(model: ConvAutoencoder, key, dtype=jnp.float32) -> AutoencoderParams:
+    field = jnp.zeros((1,) + tuple(model.grid_shape) + (model.dim,), dtype)
+    return AutoencoderParams(network=model.init(key, field), scale=jnp.asarray(1.0, dtype))
+
+
+def fit_scale(params: AutoencoderParams, fields, floor=1e-6) -> AutoencoderParams:
+    """Set the input scale to the RMS velocity over occupied nodes of `fields` (B, *grid, d)."""
+    speed_sq = jnp.sum(fields**2, axis=-1)
+    occupied = speed_sq > 0
+    rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
+    return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
+
+
+def make_observer(model: ConvAutoencoder):
+    """`observe(params, state, grid_velocity) -> (r,)` encoder means, for use inside rollouts."""
+
+    def observe(params: AutoencoderParams, state, grid_velocity):
+        del state
+        mean, _ = model.apply(params.network, grid_velocity[None] / params.scale, method="encode")
+        return mean[0]
+
+    return observe
+
+
+def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
+    """Mean per-pixel squared reconstruction error, KL to N(0, I) per sample, and their total.
+
+    total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
+    decoder, divided by the number of values so that its size does not depend on the grid.
+
+    Args:
+      fields: (B, *grid_shape, d) raw velocity fields (normalized here by `params.scale`).
+      key: sampling key for the VAE (None: use the means, e.g. for validation).
+      beta: weight of the KL term.
+    """
+    x = fields / params.scale
+    reconstruction, mean, log_variance = model.apply(params.network, x, key)
+    recon = jnp.mean((reconstruction - x) ** 2)
+    if model.variational:
+        kl = 0.5 * jnp.mean(jnp.sum(jnp.exp(log_variance) + mean**2 - 1.0 - log_variance, axis=-1))
+    else:
+        kl = jnp.zeros((), recon.dtype)
+    return {"recon": recon, "kl": kl, "total": recon + beta * kl / np.prod(x.shape[1:])}
+
+
+def per_pixel_reconstruction_loss(model, params: AutoencoderParams, fields):
+    """Average per-pixel velocity distance |D(E(v)) - v| in the fields' own units (paper Fig. 5)."""
+    x = fields / params.scale
+    reconstruction, _, _ = model.apply(params.network, x)
+    return jnp.mean(jnp.linalg.norm(reconstruction - x, axis=-1)) * params.scale
+
+
+def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformation, beta=1.0):
+    """`step(params, opt_state, fields, key) -> (params, opt_state, losses)`: one Adam step.
+
+    Pure and jittable; vmappable over seeds. Only the network is trained; the scale is kept.
+    """
+
+    def step(params: AutoencoderParams, opt_state, fields, key):
+        def objective(network):
+            out = losses(model, params.replace(network=network), fields, key, beta)
+            return out["total"], out
+
+        grads, out = jax.grad(objective, has_aux=True)(params.network)
+        updates, opt_state = optimizer.update(grads, opt_state, params.network)
+        return params.replace(network=optax.apply_updates(params.network, updates)), opt_state, out
+
+    return step
