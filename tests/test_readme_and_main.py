@@ -4,6 +4,8 @@ import json
 import pathlib
 import re
 
+import jax.numpy as jnp
+
 import litl.__main__ as cli
 
 README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
@@ -14,7 +16,9 @@ def test_readme_python_examples_run():
     assert blocks, "README has no python examples"
     namespace = {}
     exec(compile("\n".join(blocks), str(README), "exec"), namespace)
-    assert namespace["trajectory"].snapshots.shape == (10, 64, 64, 2)
+    assert namespace["trajectory"].snapshots.shape == (20, 64, 64, 2)  # the closed-loop example
+    assert namespace["features"].shape == (2 * 6 * 2,)
+    assert all(bool(jnp.isfinite(v)) for v in namespace["losses"].values())
 
 
 def test_main_runs_a_tiny_optimization(tmp_path, capsys):
