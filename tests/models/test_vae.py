@@ -120,6 +120,12 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
     assert all(np.all(np.isfinite(g)) for g in jax.tree.leaves(grads))
     assert float(sum(jnp.abs(g).sum() for g in jax.tree.leaves(grads[0]))) > 0
     assert float(jnp.abs(grads[1]).sum()) > 0
+    # Batched over two controllers (seeds) in one computation, as the loop runs them.
+    two = jax.tree.map(lambda a: jnp.stack([a, -a]), params)
+    batched = jax.jit(jax.vmap(lambda p: rollout(p, design, state)[0].x))(two)
+    for i in range(2):
+        single = jax.jit(lambda p: rollout(p, design, state)[0].x)(jax.tree.map(lambda a: a[i], two))
+        np.testing.assert_allclose(batched[i], single, rtol=1e-4, atol=1e-5)
 
 
 def test_train_step_vmapped_over_seeds_equals_separate_runs(x64):
