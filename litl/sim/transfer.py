@@ -9,7 +9,6 @@ arithmetic uses per-component (n,) arrays (see `litl.sim.linalg`).
 
 from __future__ import annotations
 
-import functools
 import itertools
 
 import jax
@@ -112,7 +111,6 @@ def _fold_batch(axis_size, in_batched, base, other, grid_rows):
     return base.reshape((-1,) + base.shape[2:]), other
 
 
-@functools.lru_cache(maxsize=None)
 def _window_transfers(grid_shape):
     """Windowed scatter/gather for one grid shape, batched by stacking grids along axis 0.
 
