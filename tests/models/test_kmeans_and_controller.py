@@ -57,6 +57,7 @@ def test_controller_rejects_bad_settings():
 
 def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():
     from litl.sim import make_rollout
+    from tests.models.closed_loop import assert_finite_nonzero_gradients
     from tests.sim.scenes import block
 
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25)
@@ -68,15 +69,4 @@ def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():
         return controller.apply(p, kmeans_features(observer, s), None, s.step * config.dt)
 
     rollout = make_rollout(config, body, policy, 60)
-
-    def loss(p, youngs):
-        final, trajectory = rollout(p, design.replace(youngs_modulus=youngs), state)
-        return -jnp.mean(final.x[:, 0]), trajectory.health
-
-    (value, health), grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1), has_aux=True))(
-        params, design.youngs_modulus)
-    assert int(health.first_nonfinite_step) == -1 and np.isfinite(float(value))
-    leaves = jax.tree.leaves(grads)
-    assert all(np.all(np.isfinite(g)) for g in leaves)
-    assert float(sum(jnp.abs(g).sum() for g in jax.tree.leaves(grads[0]))) > 0
-    assert float(jnp.abs(grads[1]).sum()) > 0
+    assert_finite_nonzero_gradients(rollout, params, design, state)

@@ -99,6 +99,7 @@ def test_bad_settings():
 
 def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
     from litl.sim import make_rollout
+    from tests.models.closed_loop import assert_finite_nonzero_gradients
     from tests.sim.scenes import block
 
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25)
@@ -109,17 +110,7 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
     params = controller.init(jax.random.key(1), jnp.zeros(4))
     policy = lambda p, s, grid_velocity: controller.apply(p, observe(observer, s, grid_velocity))
     rollout = make_rollout(config, body, policy, 40)
-
-    def loss(p, youngs):
-        final, trajectory = rollout(p, design.replace(youngs_modulus=youngs), state)
-        return -jnp.mean(final.x[:, 0]), trajectory.health
-
-    (value, health), grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1), has_aux=True))(
-        params, design.youngs_modulus)
-    assert int(health.first_nonfinite_step) == -1 and np.isfinite(float(value))
-    assert all(np.all(np.isfinite(g)) for g in jax.tree.leaves(grads))
-    assert float(sum(jnp.abs(g).sum() for g in jax.tree.leaves(grads[0]))) > 0
-    assert float(jnp.abs(grads[1]).sum()) > 0
+    assert_finite_nonzero_gradients(rollout, params, design, state)
     # Batched over two controllers (seeds) in one computation, as the loop runs them.
     two = jax.tree.map(lambda a: jnp.stack([a, -a]), params)
     batched = jax.jit(jax.vmap(lambda p: rollout(p, design, state)[0].x))(two)
