@@ -105,7 +105,7 @@ def _quadruped(steps: int):
     import jax
     import jax.numpy as jnp
 
-    from litl.sim import make_rollout, raise_if_unhealthy
+    from litl.sim import make_rollout
 
     config, body, design, state = quadruped_scene()
 
