@@ -1,0 +1,165 @@
+"""Animations of rollouts: particles coloured by actuation, written to GIF or MP4.
+
+    positions, actuation = record_rollout(robot, policy, params, steps=400, stride=4)
+    animate_rollout(robot, positions, actuation, "out/walker.gif", fps=25)
+
+`record_rollout` runs the simulation (jitted) and returns numpy arrays; `animate_rollout` draws them
+with the colour rules of `litl.viz.robots` (each actuated particle takes its actuator's value on
+``RdBu`` over [-1, 1], passive particles stay grey), 2D or 3D by the robot's dimension.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import jax
+import matplotlib.animation as manimation
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from litl.viz.robots import (
+    VizError, draw_robot, draw_robot_3d, particle_colors, resolve,
+    to_plot_3d,
+)
+
+SUFFIXES = (".gif", ".mp4")
+
+
+def _check_rollout(name, layout, positions, actuation):
+    positions = np.asarray(positions, np.float64)
+    actuation = np.asarray(actuation, np.float64)
+    n, d, m = layout.n_particles, layout.dim, layout.n_actuators
+    if positions.ndim != 3 or positions.shape[1:] != (n, d) or len(positions) == 0:
+        raise VizError(f"positions for {name!r} must have shape (T, n_particles, dim) = "
+                       f"(T, {n}, {d}) with T >= 1, got {positions.shape}")
+    if actuation.shape != (len(positions), m):
+        raise VizError(f"actuation for {name!r} must have shape (T, n_actuators) = "
+                       f"({len(positions)}, {m}) to match the positions, got {actuation.shape}")
+    return positions, actuation
+
+
+def _writer(suffix: str, fps: float):
+    if suffix == ".gif":
+        return manimation.PillowWriter(fps=fps)
+    if not manimation.writers.is_available("ffmpeg"):
+        raise VizError("writing .mp4 needs ffmpeg, which matplotlib cannot find: install it "
+                       "(e.g. `apt-get install ffmpeg` or `conda install ffmpeg`) or write a .gif")
+    return manimation.FFMpegWriter(fps=fps)
+
+
+def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: int = 1,
+                    dpi: int = 80, show_targets: bool = True, colorbar: bool = True) -> Path:
+    """Write an animation of a rollout to `path` (``.gif`` always, ``.mp4`` with ffmpeg).
+
+    Frame k shows ``positions[k * stride]`` with particles coloured by ``actuation[k * stride]``.
+    The file is written under a temporary name in the same folder and renamed at the end, so a
+    failure leaves no half-written file at `path`.
+
+    Args:
+      robot: a `Robot` (2D or 3D; its dimension picks the drawing).
+      positions: (T, n, d) particle positions per frame, e.g. from `record_rollout`.
+      actuation: (T, m) actuation per frame.
+      path: output file; its suffix picks the format (.gif or .mp4). Parent folders are created.
+      fps: frames per second of the animation.
+      stride: draw every `stride`-th frame.
+      dpi: resolution (dots per inch; the figure is 5-6 inches wide).
+      show_targets: draw reach targets and X's at the reaching groups' centroids.
+      colorbar: add a colour bar of the actuation scale.
+
+    Returns:
+      The path written.
+
+    Raises:
+      VizError: an unknown suffix, .mp4 without ffmpeg, or positions/actuation of the wrong shape.
+    """
+    name, layout, _, _ = resolve(robot)
+    positions, actuation = _check_rollout(name, layout, positions, actuation)
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise VizError(f"cannot write an animation to {str(path)!r}: use a .gif or .mp4 file name")
+    if not isinstance(stride, int) or stride < 1:
+        raise VizError(f"stride must be a positive integer, got {stride!r}")
+    if not fps > 0:
+        raise VizError(f"fps must be positive, got {fps!r}")
+    writer = _writer(suffix, fps)
+    frames = range(0, len(positions), stride)
+
+    # A bare Figure (not pyplot's): nothing pops up in interactive sessions and nothing leaks.
+    fig = Figure(figsize=(6.0, 5.0) if layout.dim == 3 else (6.0, 4.5), dpi=dpi)
+    FigureCanvasAgg(fig)
+    if layout.dim == 3:
+        ax = draw_robot_3d(robot, fig.add_subplot(projection="3d"), positions[0], actuation[0],
+                           show_targets, colorbar=colorbar)
+    else:
+        ax = draw_robot(robot, fig.add_subplot(), positions[0], actuation[0], show_targets,
+                        colorbar=colorbar)
+    particles = next(a for a in ax.get_children() if a.get_gid() == "particles")
+    crosses = [a for a in ax.get_children() if a.get_gid() == "reach_group"]
+    groups = [layout.groups[g] for g in resolve(robot)[3]] if show_targets else []
+    title = ax.set_title("")
+
+    def update(frame):
+        x = positions[frame]
+        colors = particle_colors(layout, actuation[frame])
+        if layout.dim == 3:
+            particles._offsets3d = tuple(to_plot_3d(x).T)
+            for cross, group in zip(crosses, groups):
+                cross._offsets3d = tuple(to_plot_3d(x[group].mean(axis=0))[:, None])
+        else:
+            particles.set_offsets(x)
+            for cross, group in zip(crosses, groups):
+                cross.set_data(*x[group].mean(axis=0)[:, None])
+        particles.set_facecolor(colors)
+        title.set_text(f"{name}: frame {frame + 1} / {len(positions)}")
+        return [particles, *crosses, title]
+
+    animation = manimation.FuncAnimation(fig, update, frames=frames, blit=False)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Same folder (an atomic rename), same suffix (the writers pick the container from it).
+    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.partial{suffix}")
+    try:
+        animation.save(temporary, writer=writer, dpi=dpi)
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+    return path
+
+
+def record_rollout(robot, policy, policy_params, steps: int, design=None, stride: int = 1,
+                   check: bool = True):
+    """Simulate `robot` under `policy` and return what `animate_rollout` draws.
+
+    Runs `litl.sim.make_rollout` (jitted) from the robot's rest state, recording every particle's
+    position after each step (memory: steps * n * d floats).
+
+    Args:
+      robot: a `Robot`.
+      policy: ``policy(params, state, grid_velocity) -> (m,) actuation``.
+      policy_params: the policy's parameters.
+      steps: number of simulation steps.
+      design: a `litl.sim.Design`; None: the robot's initial design (`robot.design()`).
+      stride: keep the state after steps stride, 2 stride, ... (every `stride`-th step).
+      check: raise `litl.sim.SimulationError` if the rollout blew up or lost particles (set False
+        to look at a failure).
+
+    Returns:
+      positions: (steps // stride, n, d) numpy positions after steps stride, 2 stride, ...
+      actuation: (steps // stride, m) numpy actuation applied in those steps.
+    """
+    from litl.sim import make_rollout, raise_if_unhealthy
+
+    if not isinstance(stride, int) or not 0 < stride <= steps:
+        raise VizError(f"stride must be an integer in [1, steps={steps}], got {stride!r}")
+    rollout = jax.jit(make_rollout(robot.config, robot.body(), policy, steps,
+                                   observe=lambda state: state.x, remat=False))
+    design = robot.design() if design is None else design
+    _, trajectory = rollout(policy_params, design, robot.initial_state())
+    if check:
+        raise_if_unhealthy(trajectory.health, steps)
+    keep = slice(stride - 1, None, stride)
+    return (np.asarray(trajectory.observations)[keep], np.asarray(trajectory.actuation)[keep])
