@@ -65,11 +65,13 @@ class Trajectory:
       snapshots: (n_snapshots, *grid_shape, d) grid velocity after steps stride, 2*stride, ...;
         (0, *grid_shape, d) without a stride.
       observations: pytree of `observe(state)` after every step, each leaf (steps, ...).
+      actuation: (steps, m) the policy's output at every step.
       health: validity of the rollout (see `Health`).
     """
 
     snapshots: jnp.ndarray
     observations: Any
+    actuation: jnp.ndarray
     health: Health
 
 
@@ -145,7 +147,7 @@ def make_rollout(
             index = components.step
             components, grid = step_fn(components, actuation, design, counter)
             health = health.record(config, components, index)
-            return (components, grid.velocity, health), observe(components.pack())
+            return (components, grid.velocity, health), (observe(components.pack()), actuation)
 
         if remat:
             one_step = jax.checkpoint(one_step)
@@ -181,9 +183,11 @@ def make_rollout(
         concatenate = lambda *parts: jnp.concatenate(parts) if len(parts) > 1 else parts[0]
         if not snapshots:
             snapshots = [jnp.zeros((0,) + last_grid_velocity.shape, last_grid_velocity.dtype)]
+        observations, actuation = jax.tree.map(concatenate, *observations)
         return final_components.pack(), Trajectory(
             snapshots=concatenate(*snapshots),
-            observations=jax.tree.map(concatenate, *observations),
+            observations=observations,
+            actuation=actuation,
             health=health,
         )
 

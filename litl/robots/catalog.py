@@ -1,0 +1,265 @@
+"""The paper's robots (Figs. 4 and 6), built from shapes, a PNG image and 3D primitives.
+
+Every robot is defined in physical units (2D domain 1 x 1, 3D domain 2 x 1 x 1, axis 1 up) and
+sampled at a grid spacing `dx` (2 particles per cell per axis). The time step follows dx so that the
+stiffest allowed design keeps the same CFL number (about 0.8), and the episode lasts the same
+simulated time at any resolution: refine dx for paper-scale runs, coarsen it for quick ones.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from importlib import resources
+from typing import Callable
+
+import numpy as np
+
+from litl.robots.image import layout_from_png
+from litl.robots.robot import Material, Robot, place
+from litl.robots.shapes import Box, Ellipse, Extrusion, Part, Polygon, sample_parts
+from litl.robots.tasks import Locomotion, Reach, Task
+from litl.sim import Boundary, ConfigError, SimConfig
+
+GRAVITY = 3.8
+# dt / dx; with E <= 30, nu = 0.25, density 1 and actuator strength 4 the CFL number is 0.81.
+DT_PER_DX = 0.128
+UP = (0.0, 1.0)
+
+
+class UnknownRobotError(KeyError):
+    """No robot is registered under that name."""
+
+    def __str__(self):
+        return str(self.args[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class Entry:
+    """How to build one registered robot."""
+
+    build: Callable[[float], Robot]
+    dim: int
+    default_dx: float
+    summary: str
+
+
+def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
+    """(SimConfig, steps) for the standard domain at spacing dx."""
+    extent = (1.0, 1.0) if dim == 2 else (2.0, 1.0, 1.0)
+    cells = [e / dx for e in extent]
+    if not (dx > 0) or any(abs(c - round(c)) > 1e-6 for c in cells):
+        raise ConfigError(
+            f"dx={dx!r} must divide the domain {extent} into whole cells, e.g. 1/32, 1/64 or 1/128")
+    dt = DT_PER_DX * dx
+    up = np.zeros(dim)
+    up[1] = -gravity
+    config = SimConfig(grid_shape=tuple(int(round(c)) for c in cells), dx=dx, dt=dt,
+                       gravity=tuple(up), boundary=Boundary.box(dim, thickness=3))
+    return config, max(int(round(duration / dt)), 1)
+
+
+def _legged_2d(torso, legs, torso_regions=2):
+    """Parts of a 2D walker: a torso box split in `torso_regions` design regions along x, and legs.
+
+    Each leg (x, width, height) gets two actuators (its front and back halves, fibers vertical) and
+    its own design region.
+    """
+    (x0, y0), (w, h) = torso
+    parts = [Part(Box((x0 + i * w / torso_regions, y0), (w / torso_regions, h)), region=i)
+             for i in range(torso_regions)]
+    for k, (x, width, height) in enumerate(legs):
+        region = torso_regions + k
+        for half in range(2):
+            parts.append(Part(Box((x + half * width / 2, y0 - height), (width / 2, height)),
+                              actuator=2 * k + half, fiber=UP, region=region))
+    return parts
+
+
+def biped(dx: float) -> Robot:
+    config, steps = simulation(2, dx, duration=1.0)
+    parts = _legged_2d(torso=((0.0, 0.12), (0.24, 0.08)), legs=[(0.0, 0.06, 0.12), (0.18, 0.06, 0.12)])
+    return Robot(
+        "biped", place(sample_parts(parts, dx), config, x=0.1), config,
+        task=Task(Locomotion()), steps=steps,
+        description=(
+            "2D biped (Fig. 4b): torso 0.24 x 0.08 on two legs 0.06 x 0.12, each leg two vertical "
+            "actuators (front/back half), 4 actuators; 4 design regions (torso front/back, each leg) "
+            "for co-design of Young's modulus in [5, 30]. Task: run right (centroid distance), 1 s."))
+
+
+ARM = dict(width=0.08, length=0.24, segments=3, strength=1.5, duration=1.0, target=(0.1, -0.02))
+
+
+def arm(dx: float) -> Robot:
+    width, length, segments = ARM["width"], ARM["length"], ARM["segments"]
+    config, steps = simulation(2, dx, duration=ARM["duration"], gravity=0.0)
+    base_x = 0.5 - width / 2
+    parts = [Part(Box((base_x - 0.03, 0.0), (width + 0.06, 0.04)), pinned=True, region=0)]
+    segment = length / segments
+    for s in range(segments):
+        y = 0.04 + s * segment
+        for side in range(2):
+            parts.append(Part(Box((base_x + side * width / 2, y), (width / 2, segment)),
+                              actuator=2 * s + side, fiber=UP, region=1 + s))
+    parts.append(Part(Box((base_x, 0.04 + length - 0.04), (width, 0.04)), groups=("tip",)))
+    layout = place(sample_parts(parts, dx), config)
+    tip = layout.positions[layout.groups["tip"]].mean(axis=0)
+    target = tuple(tip + np.asarray(ARM["target"]))
+    material = Material(actuator_strength=ARM["strength"])
+    return Robot(
+        "arm", layout, config, material=material, task=Task(Reach("tip", target)), steps=steps,
+        description=(
+            f"2D arm (Fig. 4a): a {width} x {length} column on a pinned base, no gravity; "
+            f"{segments} segments with a left and a right vertical actuator each "
+            f"({2 * segments} actuators, strength {ARM['strength']}). Task: at the end of "
+            f"{ARM['duration']} s the centroid of the top 0.04 ('tip') must be at a point "
+            f"{ARM['target'][0]} right of and {-ARM['target'][1]} below its rest position; the "
+            f"actuators cannot bend it there statically, so it must swing."))
+
+
+def elephant(dx: float) -> Robot:
+    config, steps = simulation(2, dx, duration=1.0)
+    parts = _legged_2d(torso=((0.0, 0.12), (0.26, 0.12)), legs=[(0.0, 0.06, 0.12), (0.18, 0.06, 0.12)])
+    # Head and trunk overlap the torso's front region and share it (the elephant is pure control).
+    head = Part(Ellipse((0.29, 0.21), (0.06, 0.05)), region=1)
+    trunk = [Part(Box((0.31, 0.06 + 0.04 * i), (0.03, 0.04)), actuator=4 + i, fiber=UP, region=1)
+             for i in range(3)]
+    tip = Part(Box((0.31, 0.06), (0.03, 0.03)), groups=("trunk_tip",))
+    layout = place(sample_parts(parts + [head, *trunk, tip], dx), config, x=0.1)
+    tip_at = layout.positions[layout.groups["trunk_tip"]].mean(axis=0)
+    target = (tip_at[0] + 0.25, tip_at[1] + 0.12)
+    task = Task((Locomotion(weight=1.0), Reach("trunk_tip", target, weight=10.0)))
+    return Robot(
+        "elephant", layout, config, task=task, steps=steps,
+        description=(
+            "2D 'elephant' (Fig. 4c): torso 0.26 x 0.12 on two legs (two actuators each), an "
+            "elliptic head and a 0.03-wide trunk of three actuated segments (7 actuators, 4 "
+            "regions: torso back, torso front with head and trunk, legs). Task: walk right (weight 1) while the trunk tip ('trunk_tip') reaches a "
+            "point 0.25 right of and 0.12 above its start (squared distance, weight 10)."))
+
+
+def bunny(dx: float) -> Robot:
+    config, steps = simulation(2, dx, duration=1.0)
+    parts = _legged_2d(torso=((0.0, 0.1), (0.22, 0.1)), legs=[(0.0, 0.07, 0.1), (0.15, 0.07, 0.1)])
+    # Head and ears overlap the torso's front region and share it; the arms only touch it.
+    head = Part(Ellipse((0.24, 0.23), 0.05), region=1)
+    ears = [Part(Ellipse((0.22 + 0.035 * i, 0.3), (0.012, 0.045)), region=1) for i in range(2)]
+    arms = []
+    for i, (name, y) in enumerate((("left_hand", 0.15), ("right_hand", 0.11))):
+        arms.append(Part(Box((0.22, y), (0.08, 0.025)), actuator=4 + i, fiber=(1.0, 0.0), region=4))
+        arms.append(Part(Box((0.27, y), (0.03, 0.025)), groups=(name,)))
+    layout = place(sample_parts(parts + [head, *ears, *arms], dx), config, x=0.1)
+    targets = {}
+    for name, lift in (("left_hand", 0.15), ("right_hand", 0.05)):
+        at = layout.positions[layout.groups[name]].mean(axis=0)
+        targets[name] = (at[0] + 0.2, at[1] + lift)
+    task = Task((Locomotion(weight=1.0),
+                 *(Reach(name, target, weight=5.0) for name, target in targets.items())))
+    return Robot(
+        "bunny", layout, config, task=task, steps=steps,
+        description=(
+            "2D 'bunny' (Fig. 4d): torso 0.22 x 0.1 on two legs (two actuators each), round head "
+            "with two ears, two forward arms 0.08 x 0.025 with a horizontal actuator each (6 "
+            "actuators, 5 regions: torso back/front with head, legs, arms). Task: walk forward (weight 1) while the two hands ('left_hand', "
+            "'right_hand') reach points 0.2 ahead and 0.15 / 0.05 higher (weight 5 each)."))
+
+
+RHINO_WIDTH = 0.36
+
+
+def rhino(dx: float) -> Robot:
+    config, steps = simulation(2, dx, duration=1.0)
+    data = resources.files("litl.robots") / "data"
+    layout = layout_from_png(data / "rhino.png", width=RHINO_WIDTH, dx=dx, legend=data / "rhino.json")
+    return Robot(
+        "rhino", place(layout, config, x=0.1), config, task=Task(Locomotion()), steps=steps,
+        description=(
+            f"2D rhino (Fig. 6), read from the package's rhino.png with its legend rhino.json, "
+            f"scaled to {RHINO_WIDTH} wide: body, horn, four legs with two actuators each "
+            f"(8 actuators). Task: run right."))
+
+
+def _legs_3d(positions, width, depth, height, first_actuator, first_region):
+    """Box legs below y = 0 at (x, z) corners, each split into front/back actuated halves."""
+    parts = []
+    for k, (x, z) in enumerate(positions):
+        for half in range(2):
+            parts.append(Part(Box((x + half * width / 2, -height, z), (width / 2, height, depth)),
+                              actuator=first_actuator + 2 * k + half, fiber=(0.0, 1.0, 0.0),
+                              region=first_region + k))
+    return parts
+
+
+def _walker_3d(name, dx, torso_parts, leg_xs, width, leg, description):
+    config, steps = simulation(3, dx, duration=1.0)
+    leg_w, leg_h = leg
+    corners = [(x, z) for x in leg_xs for z in (0.0, width - leg_w)]
+    parts = torso_parts + _legs_3d(corners, leg_w, leg_w, leg_h, 0, 1)
+    layout = place(sample_parts(parts, dx), config, x=0.2)
+    return Robot(name, layout, config, task=Task(Locomotion()), steps=steps,
+                 description=description)
+
+
+def quadruped(dx: float) -> Robot:
+    length, width = 0.4, 0.2
+    torso = [Part(Box((0.0, 0.0, 0.0), (length, 0.08, width)), region=0)]
+    return _walker_3d(
+        "quadruped", dx, torso, (0.0, length - 0.08), width, (0.08, 0.1),
+        "3D quadruped (Fig. 6): torso 0.4 x 0.08 x 0.2 on four 0.08 x 0.1 x 0.08 legs, each with "
+        "front/back vertical actuators (8 actuators). Task: run toward +x.")
+
+
+def curved_quadruped(dx: float) -> Robot:
+    length, width = 0.44, 0.2
+    # Side view of an arched back: the band between two elliptic arcs, extruded across the width.
+    angles = np.linspace(0.0, np.pi, 24)
+    outer = np.column_stack([length / 2 * (1 - np.cos(angles)), 0.14 * np.sin(angles)])
+    inner = np.column_stack([length / 2 + (length / 2 - 0.08) * -np.cos(angles[::-1]),
+                             0.06 * np.sin(angles[::-1])])
+    arch = Polygon(tuple(map(tuple, np.concatenate([outer, inner]))))
+    head = Ellipse((length, 0.09, width / 2), (0.06, 0.05, 0.06))
+    torso = [Part(Extrusion(arch, 0.0, width), region=0), Part(head, region=0)]
+    return _walker_3d(
+        "curved_quadruped", dx, torso, (0.0, length - 0.08), width, (0.08, 0.08),
+        "3D curved quadruped (Fig. 6): an arched back (a 0.44-long band between two elliptic arcs, "
+        "0.14 high, extruded 0.2 across) with a round head, standing on four 0.08 x 0.08 x 0.08 "
+        "legs with front/back actuators (8 actuators). Task: run toward +x.")
+
+
+def hexapod(dx: float) -> Robot:
+    length, width = 0.5, 0.2
+    torso = [Part(Box((0.0, 0.0, 0.0), (length, 0.07, width)), region=0)]
+    return _walker_3d(
+        "hexapod", dx, torso, (0.0, (length - 0.07) / 2, length - 0.07), width, (0.07, 0.09),
+        "3D hexapod (Fig. 6): torso 0.5 x 0.07 x 0.2 on six 0.07 x 0.09 x 0.07 legs, three per "
+        "side, each with front/back vertical actuators (12 actuators). Task: run toward +x.")
+
+
+ROBOTS: dict[str, Entry] = {
+    "arm": Entry(arm, 2, 1 / 128, "2D arm with a pinned base reaching a target by swinging"),
+    "biped": Entry(biped, 2, 1 / 128, "2D biped running right; co-design of 4 regions"),
+    "elephant": Entry(elephant, 2, 1 / 128, "2D elephant walking right while its trunk reaches"),
+    "bunny": Entry(bunny, 2, 1 / 128, "2D bunny walking while two hands reach two targets"),
+    "rhino": Entry(rhino, 2, 1 / 128, "2D rhino from a PNG, running right"),
+    "quadruped": Entry(quadruped, 3, 1 / 32, "3D quadruped running toward +x"),
+    "curved_quadruped": Entry(curved_quadruped, 3, 1 / 32, "3D arched quadruped running toward +x"),
+    "hexapod": Entry(hexapod, 3, 1 / 32, "3D hexapod running toward +x"),
+}
+
+
+def names() -> list[str]:
+    """Names of the registered robots."""
+    return sorted(ROBOTS)
+
+
+def get(name: str, dx: float | None = None) -> Robot:
+    """The registered robot `name`, sampled at grid spacing `dx` (default: the robot's own).
+
+    Raises:
+      UnknownRobotError: for an unknown name (the message lists the known ones).
+    """
+    if name not in ROBOTS:
+        raise UnknownRobotError(f"unknown robot {name!r}; choose one of {names()}")
+    entry = ROBOTS[name]
+    return entry.build(entry.default_dx if dx is None else dx)
+

@@ -1,0 +1,178 @@
+"""Robots from images: every pixel's colour says what the material there is.
+
+Draw the robot's side view in any image editor with a hard-edged pencil (anti-aliasing invents
+colours between two neighbours), save it as PNG, and map colours to roles with a legend.
+
+Default palette (used when no legend is given; white and transparent pixels are always empty):
+
+    #000000 black    passive body
+    #808080 grey     pinned body (held fixed, e.g. an arm's base)
+    #ff0000 red      actuator 0      #ff00ff magenta  actuator 3      #8000ff purple  actuator 6
+    #0000ff blue     actuator 1      #00ffff cyan     actuator 4      #00ff00 green   actuator 7
+    #ffff00 yellow   actuator 2      #ff8000 orange   actuator 5
+
+Actuator fibers point up; design regions are 0 for passive pixels and 1 + k for actuator k.
+
+A legend (a JSON file or a dict) replaces the palette. Keys are colours ``"#rrggbb"``, values say
+what the colour is, with the keys ``actuator`` (id), ``fiber`` ([x, y]), ``region`` (id),
+``groups`` (list of names) and ``pinned`` (bool); ``{}`` is passive body in region 0, and the
+string ``"empty"`` marks a background colour:
+
+    {"#000000": {}, "#ff0000": {"actuator": 0, "region": 1},
+     "#00a000": {"groups": ["horn"]}, "#c0c0ff": "empty"}
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Mapping
+
+import numpy as np
+
+from litl.robots.layout import Layout, LayoutError
+from litl.robots.shapes import LabelMerger, lattice
+
+ACTUATOR_COLOURS = ("#ff0000", "#0000ff", "#ffff00", "#ff00ff", "#00ffff", "#ff8000", "#8000ff",
+                    "#00ff00")
+EMPTY_COLOURS = ("#ffffff",)
+LEGEND_KEYS = {"actuator", "fiber", "region", "groups", "pinned"}
+
+
+def default_legend() -> dict:
+    """The default palette as a legend."""
+    legend = {"#000000": {}, "#808080": {"pinned": True}}
+    for k, colour in enumerate(ACTUATOR_COLOURS):
+        legend[colour] = {"actuator": k, "region": k + 1}
+    return legend
+
+
+def _colour(key) -> tuple[int, int, int]:
+    text = str(key).strip().lower()
+    if len(text) != 7 or text[0] != "#":
+        raise LayoutError(f"legend colour {key!r} must be written '#rrggbb'")
+    try:
+        return tuple(int(text[i:i + 2], 16) for i in (1, 3, 5))
+    except ValueError:
+        raise LayoutError(f"legend colour {key!r} is not hexadecimal '#rrggbb'") from None
+
+
+def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
+    """Parse a legend (path to JSON, or mapping) into {rgb: role}, checking every entry."""
+    if legend is None:
+        legend = default_legend()
+    elif not isinstance(legend, Mapping):
+        try:
+            legend = json.loads(open(legend).read() if not hasattr(legend, "read_text")
+                                else legend.read_text())
+        except (OSError, json.JSONDecodeError) as error:
+            raise LayoutError(f"cannot read legend {legend}: {error}") from None
+        if not isinstance(legend, dict):
+            raise LayoutError("a legend file must hold a JSON object {\"#rrggbb\": {...}}")
+    parsed = {}
+    for key, role in legend.items():
+        rgb = _colour(key)
+        if role == "empty":
+            parsed[rgb] = "empty"
+            continue
+        if not isinstance(role, Mapping) or set(role) - LEGEND_KEYS:
+            raise LayoutError(
+                f"legend entry {key}: {role!r} must be \"empty\" or an object with keys from "
+                f"{sorted(LEGEND_KEYS)}")
+        parsed[rgb] = dict(role)
+    return parsed
+
+
+def read_image(path) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) uint8 RGB and (H, W) bool opacity of an image file, row 0 at the top."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            rgba = np.asarray(image.convert("RGBA"))
+    except FileNotFoundError:
+        raise LayoutError(f"image file {os.fspath(path)!r} does not exist") from None
+    except (UnidentifiedImageError, OSError) as error:
+        raise LayoutError(f"{os.fspath(path)!r} is not a readable image (PNG expected): {error}") from None
+    return rgba[..., :3], rgba[..., 3] >= 128
+
+
+def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_cell: int = 2,
+                       source: str = "image") -> Layout:
+    """Layout from an RGB pixel array (H, W, 3), row 0 at the top; see `layout_from_png`."""
+    roles = read_legend(legend)
+    rgb = np.asarray(rgb, np.uint8)
+    empty = ~np.asarray(opaque, bool)
+    for colour in EMPTY_COLOURS:
+        empty |= np.all(rgb == _colour(colour), axis=-1)
+    for colour, role in roles.items():
+        if role == "empty":
+            empty |= np.all(rgb == colour, axis=-1)
+    if empty.all():
+        raise LayoutError(f"{source} has no robot pixels: everything is white, transparent or empty")
+    rows, cols = np.nonzero(~empty)
+    rgb, empty = (a[rows.min():rows.max() + 1, cols.min():cols.max() + 1] for a in (rgb, empty))
+    known = np.zeros(empty.shape, bool)
+    for colour in roles:
+        known |= np.all(rgb == colour, axis=-1)
+    unknown = ~empty & ~known
+    if unknown.any():
+        r, c = np.argwhere(unknown)[0]
+        found = sorted({"#%02x%02x%02x" % tuple(p) for p in rgb[unknown]})
+        raise LayoutError(
+            f"{source}: {int(unknown.sum())} pixels have colours not in the legend, e.g. "
+            f"{found[:5]} (first at row {r + rows.min()}, column {c + cols.min()}). Add them to the "
+            f"legend, or repaint them with a palette colour (draw without anti-aliasing).")
+    if not (np.isfinite(width) and width > 0):
+        raise LayoutError(f"the robot's width must be a positive length, got {width!r}")
+    height_px, width_px = empty.shape
+    pixel = width / width_px
+    spacing = dx / per_cell
+    points = lattice((0.0, 0.0), (width, height_px * pixel), spacing)
+    column = np.minimum((points[:, 0] / pixel).astype(int), width_px - 1)
+    row = height_px - 1 - np.minimum((points[:, 1] / pixel).astype(int), height_px - 1)
+    inside = (points[:, 0] < width) & (points[:, 1] < height_px * pixel)
+    sampled = rgb[row, column]
+    labels = LabelMerger(len(points))
+    for colour, role in roles.items():
+        if role == "empty":
+            continue
+        mask = inside & ~empty[row, column] & np.all(sampled == colour, axis=-1)
+        if not mask.any():
+            continue
+        actuator = role.get("actuator")
+        region = role.get("region", 0 if actuator is None else None)
+        fiber = role.get("fiber", (0.0, 1.0) if actuator is not None else None)
+        try:
+            if fiber is not None:
+                fiber = np.asarray(fiber, np.float64) / np.linalg.norm(fiber)
+            labels.add("#%02x%02x%02x" % colour, mask, actuator, None if fiber is None else tuple(fiber),
+                       region, tuple(role.get("groups", ())), bool(role.get("pinned", False)), points)
+        except (TypeError, ValueError) as error:
+            if isinstance(error, LayoutError):
+                raise
+            raise LayoutError(f"legend entry {'#%02x%02x%02x' % colour}: {role!r} is malformed: {error}") from None
+    if not labels.occupied.any():
+        raise LayoutError(
+            f"{source} is too small for dx={dx:g}: no particle landed on a robot pixel; make the "
+            f"robot wider or refine dx")
+    return labels.layout(points, spacing**2)
+
+
+def layout_from_png(path, width: float, dx: float, legend=None, per_cell: int = 2) -> Layout:
+    """Build a 2D layout from a PNG drawing.
+
+    The drawing's non-empty pixels are cropped to their bounding box and scaled so the robot is
+    `width` long along x (pixels are square); the image's top is "up". Particles sit on a lattice
+    of spacing ``dx / per_cell`` and take the role of the pixel they fall in.
+
+    Args:
+      path: PNG file.
+      width: physical width of the robot (domain units).
+      dx: simulator grid spacing.
+      legend: JSON file path or dict mapping colours to roles (see the module doc); None: default
+        palette.
+      per_cell: particles per grid cell per axis.
+    """
+    rgb, opaque = read_image(path)
+    return layout_from_pixels(rgb, opaque, width, dx, legend, per_cell, source=os.fspath(path))
