@@ -19,6 +19,12 @@ def test_readme_python_examples_run():
     assert namespace["trajectory"].snapshots.shape == (20, 64, 64, 2)  # the closed-loop example
     assert namespace["features"].shape == (2 * 6 * 2,)
     assert all(bool(jnp.isfinite(v)) for v in namespace["losses"].values())
+    tmp = pathlib.Path(namespace["tmp"])                            # the robots examples
+    for picture in ("biped.png", "biped.gif", "my_rhino.png"):
+        assert (tmp / picture).stat().st_size > 1000
+    assert namespace["positions"].shape == (10, namespace["robot"].layout.n_particles, 2)
+    assert namespace["mine"].n_actuators == 2 and "head" in namespace["mine"].layout.groups
+    assert namespace["rhino"].n_actuators == 8
 
 
 def test_main_runs_a_tiny_optimization(tmp_path, capsys):
