@@ -58,6 +58,11 @@ def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
     return config, max(int(round(duration / dt)), 1)
 
 
+def start_x(dx: float) -> float:
+    """Left edge of a walker: 0.1, or one cell clear of the 3-cell side wall on coarse grids."""
+    return max(0.1, 4.5 * dx)
+
+
 def _legged_2d(torso, legs, torso_regions=2):
     """Parts of a 2D walker: a torso box split in `torso_regions` design regions along x, and legs.
 
@@ -79,7 +84,7 @@ def biped(dx: float) -> Robot:
     config, steps = simulation(2, dx, duration=1.0)
     parts = _legged_2d(torso=((0.0, 0.12), (0.24, 0.08)), legs=[(0.0, 0.06, 0.12), (0.18, 0.06, 0.12)])
     return Robot(
-        "biped", place(sample_parts(parts, dx), config, x=0.1), config,
+        "biped", place(sample_parts(parts, dx), config, x=start_x(dx)), config,
         task=Task(Locomotion()), steps=steps,
         description=(
             "2D biped (Fig. 4b): torso 0.24 x 0.08 on two legs 0.06 x 0.12, each leg two vertical "
@@ -125,7 +130,7 @@ def elephant(dx: float) -> Robot:
     trunk = [Part(Box((0.31, 0.06 + 0.04 * i), (0.03, 0.04)), actuator=4 + i, fiber=UP, region=1)
              for i in range(3)]
     tip = Part(Box((0.31, 0.06), (0.03, 0.03)), groups=("trunk_tip",))
-    layout = place(sample_parts(parts + [head, *trunk, tip], dx), config, x=0.1)
+    layout = place(sample_parts(parts + [head, *trunk, tip], dx), config, x=start_x(dx))
     tip_at = layout.positions[layout.groups["trunk_tip"]].mean(axis=0)
     target = (tip_at[0] + 0.25, tip_at[1] + 0.12)
     task = Task((Locomotion(weight=1.0), Reach("trunk_tip", target, weight=10.0)))
@@ -148,7 +153,7 @@ def bunny(dx: float) -> Robot:
     for i, (name, y) in enumerate((("left_hand", 0.15), ("right_hand", 0.11))):
         arms.append(Part(Box((0.22, y), (0.08, 0.025)), actuator=4 + i, fiber=(1.0, 0.0), region=4))
         arms.append(Part(Box((0.27, y), (0.03, 0.025)), groups=(name,)))
-    layout = place(sample_parts(parts + [head, *ears, *arms], dx), config, x=0.1)
+    layout = place(sample_parts(parts + [head, *ears, *arms], dx), config, x=start_x(dx))
     targets = {}
     for name, lift in (("left_hand", 0.15), ("right_hand", 0.05)):
         at = layout.positions[layout.groups[name]].mean(axis=0)
@@ -172,7 +177,7 @@ def rhino(dx: float) -> Robot:
     data = resources.files("litl.robots") / "data"
     layout = layout_from_png(data / "rhino.png", width=RHINO_WIDTH, dx=dx, legend=data / "rhino.json")
     return Robot(
-        "rhino", place(layout, config, x=0.1), config, task=Task(Locomotion()), steps=steps,
+        "rhino", place(layout, config, x=start_x(dx)), config, task=Task(Locomotion()), steps=steps,
         description=(
             f"2D rhino (Fig. 6), read from the package's rhino.png with its legend rhino.json, "
             f"scaled to {RHINO_WIDTH} wide: body, horn, four legs with two actuators each "

@@ -1,0 +1,234 @@
+"""Algorithm 1 (learning-in-the-loop co-optimization) as pure functions of one seed's `LoopState`.
+
+`make_algorithm(robot, config)` returns an `Algorithm` whose functions are written for one seed and
+batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
+
+* `init(seed)`: random controller θ and observer Θ, design φ0, optimizer states, empty buffer.
+* `bootstrap(state)`: one rollout of the untrained controller fills the buffer; the observer is
+  trained on it and Θ takes the trained copy whole (a random Θ has nothing worth keeping).
+* `optimize(state)`: one optimization iteration — rollout with the fixed observer Θ, task loss,
+  gradients w.r.t. θ and φ through the whole simulation, Adam, projection of φ into its bounds,
+  snapshots into the replay buffer (or replacing it without replay; or one observer step on them
+  in the simultaneous ablation).
+* `learn(state)`: the learning phase on a copy Θ′ (even train/validation split, minibatch epochs,
+  early stopping), then Θ ← α·Θ′ + (1 − α)·Θ.
+* `evaluate(state)`: the task loss of the current θ, φ, Θ without a gradient (Table 1's "before").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from flax import struct
+
+from litl.loop.config import LoopConfig
+from litl.loop.learning import LearningStats, make_learning_phase, soft_update
+from litl.loop.replay import ReplayBuffer, add, replace_with
+from litl.models import vae
+from litl.models.controller import MLPController
+from litl.models.kmeans import fit_kmeans, kmeans_features
+from litl.robots.robot import Robot
+from litl.sim import make_rollout
+
+
+@struct.dataclass
+class LoopState:
+    """Everything one seed's run carries from iteration to iteration (a pytree; vmappable).
+
+    Attributes:
+      controller: θ, flax parameters of the MLP controller.
+      design: φ, (R,) Young's modulus of each design region.
+      controller_optimizer: Adam state of θ.
+      design_optimizer: Adam state of φ.
+      observer: Θ, `AutoencoderParams` (vae/ae) or `KMeansObserver` (kmeans).
+      observer_optimizer: Adam state of Θ's network for the simultaneous ablation (else empty).
+      buffer: the replay buffer of grid velocity snapshots.
+      key: (2,) uint32 raw PRNG key data (plain arrays checkpoint and compare bitwise).
+      stats: `LearningStats` of the latest learning phase (NaN before the first).
+    """
+
+    controller: Any
+    design: jnp.ndarray
+    controller_optimizer: Any
+    design_optimizer: Any
+    observer: Any
+    observer_optimizer: Any
+    buffer: ReplayBuffer
+    key: jnp.ndarray
+    stats: LearningStats
+
+
+@dataclasses.dataclass(frozen=True)
+class Algorithm:
+    """The pure pieces of one seed's run; see the module docstring."""
+
+    init: Callable[[int], LoopState]
+    bootstrap: Callable[[LoopState], tuple[LoopState, LearningStats]]
+    optimize: Callable[[LoopState], tuple[LoopState, dict]]
+    learn: Callable[[LoopState], tuple[LoopState, LearningStats]]
+    evaluate: Callable[[LoopState], jnp.ndarray]
+    steps: int
+    n_features: int
+
+
+def empty_stats(dtype) -> LearningStats:
+    nan = jnp.full((), jnp.nan, dtype)
+    zero = jnp.zeros((), jnp.int32)
+    return LearningStats(recon_loss_train=nan, recon_loss_val=nan, kl=nan, val_loss=nan,
+                         epochs_used=zero, best_epoch=zero)
+
+
+def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
+    """Build the pure functions of Algorithm 1 for `robot` under `config`."""
+    dtype = jnp.dtype(config.dtype)
+    if dtype == jnp.float64 and not jax.config.jax_enable_x64:
+        raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
+    steps = config.steps or robot.steps
+    stride = min(config.snapshot_stride, steps)
+    scene = robot.scene(dtype)
+    sim_config, initial_state = scene.config, scene.state
+    grid_shape, dim = sim_config.grid_shape, sim_config.dim
+    task_loss = robot.task_loss()
+
+    if config.learned_observer:
+        model = vae.ConvAutoencoder(grid_shape, latent_dim=config.latent_dim,
+                                    channels=config.channels,
+                                    variational=config.observer == "vae")
+        encode = vae.make_observer(model)
+        n_features = config.latent_dim
+        learning_phase = make_learning_phase(model, config.learning)
+        observer_step = vae.make_train_step(model, optax.adam(config.learning.learning_rate),
+                                            config.learning.beta)
+    else:
+        if config.clusters > robot.layout.n_particles:
+            raise ValueError(f"clusters={config.clusters} exceeds the robot's "
+                             f"{robot.layout.n_particles} particles")
+        encode = kmeans_features
+        n_features = 2 * config.clusters * dim
+    controller = MLPController(robot.n_actuators, config.controller_widths,
+                               period=config.controller_period)
+    controller_adam = optax.adam(config.learning_rate)
+    design_adam = optax.adam(config.design_learning_rate)
+
+    def policy(params, state, grid_velocity):
+        controller_params, observer = params
+        features = encode(jax.lax.stop_gradient(observer), state, grid_velocity)
+        time = state.step.astype(dtype) * sim_config.dt
+        return controller.apply(controller_params, features.astype(dtype), time=time)
+
+    rollout = make_rollout(sim_config, scene.body, policy, steps, snapshot_stride=stride,
+                           observe=lambda state: ())
+
+    def simulate(controller_params, design, observer):
+        final, trajectory = rollout((controller_params, observer), robot.design(design),
+                                    initial_state)
+        total, components = task_loss(initial_state, final)
+        return total, (components, trajectory)
+
+    def init(seed: int) -> LoopState:
+        key = jax.random.key(seed)
+        key, controller_key, observer_key = jax.random.split(key, 3)
+        features = jnp.zeros((n_features,), dtype)
+        controller_params = controller.init(controller_key, features, time=jnp.zeros((), dtype))
+        if config.learned_observer:
+            observer = vae.init_autoencoder(model, observer_key, dtype)
+            observer_optimizer = optax.adam(config.learning.learning_rate).init(observer.network)
+        else:
+            observer = fit_kmeans(initial_state.x, config.clusters, seed=seed)
+            observer_optimizer = ()
+        design = robot.region_youngs_modulus(dtype)
+        return LoopState(
+            controller=controller_params,
+            design=design,
+            controller_optimizer=controller_adam.init(controller_params),
+            design_optimizer=design_adam.init(design),
+            observer=observer,
+            observer_optimizer=observer_optimizer,
+            buffer=ReplayBuffer.empty(config.replay_capacity, grid_shape, dim, dtype),
+            key=jax.random.key_data(key),
+            stats=empty_stats(dtype),
+        )
+
+    def split_key(state: LoopState):
+        key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
+        return state.replace(key=jax.random.key_data(key)), sub
+
+    def learn(state: LoopState):
+        if not config.learned_observer:
+            return state, state.stats
+        state, key = split_key(state)
+        trained, stats = learning_phase(state.observer, state.buffer, key)
+        observer = soft_update(state.observer, trained, config.alpha)
+        return state.replace(observer=observer, stats=stats), stats
+
+    def bootstrap(state: LoopState):
+        _, (_, trajectory) = simulate(state.controller, state.design, state.observer)
+        state = state.replace(buffer=add(state.buffer, trajectory.snapshots))
+        if not config.learned_observer:
+            return state, state.stats
+        state, key = split_key(state)
+        trained, stats = learning_phase(state.observer, state.buffer, key)
+        return state.replace(observer=trained, stats=stats), stats
+
+    def optimize(state: LoopState):
+        value_and_grad = jax.value_and_grad(simulate, argnums=(0, 1), has_aux=True)
+        (total, (components, trajectory)), (controller_grad, design_grad) = value_and_grad(
+            state.controller, state.design, state.observer)
+        updates, controller_optimizer = controller_adam.update(
+            controller_grad, state.controller_optimizer, state.controller)
+        state = state.replace(controller=optax.apply_updates(state.controller, updates),
+                              controller_optimizer=controller_optimizer)
+        if config.codesign:
+            updates, design_optimizer = design_adam.update(
+                design_grad, state.design_optimizer, state.design)
+            design = robot.project(optax.apply_updates(state.design, updates))
+            state = state.replace(design=design, design_optimizer=design_optimizer)
+        snapshots = trajectory.snapshots
+        keep = add if config.replay else replace_with
+        state = state.replace(buffer=keep(state.buffer, snapshots))
+        recon = jnp.full((), jnp.nan, dtype)
+        if config.simultaneous and config.learned_observer:
+            state, key = split_key(state)
+            observer, observer_optimizer, losses = observer_step(
+                state.observer, state.observer_optimizer, snapshots, key)
+            state = state.replace(observer=observer, observer_optimizer=observer_optimizer)
+            recon = losses["recon"]
+        metrics = {
+            "task_loss": total,
+            **{f"task/{name}": value for name, value in components.items()},
+            "design_mean": jnp.mean(state.design),
+            "design_min": jnp.min(state.design),
+            "design_max": jnp.max(state.design),
+            "controller_grad_norm": optax.global_norm(controller_grad),
+            "design_grad_norm": optax.global_norm(design_grad),
+            "simultaneous_recon_loss": recon,
+            "first_nonfinite_step": trajectory.health.first_nonfinite_step,
+            "first_escape_step": trajectory.health.first_escape_step,
+        }
+        return state, metrics
+
+    def evaluate(state: LoopState):
+        total, _ = simulate(state.controller, state.design, state.observer)
+        return total
+
+    return Algorithm(init=init, bootstrap=bootstrap, optimize=optimize, learn=learn,
+                     evaluate=evaluate, steps=steps, n_features=n_features)
+
+
+def stack_seeds(states: list[LoopState]) -> LoopState:
+    """Stack per-seed states along a new leading axis (the seed axis)."""
+    return jax.tree.map(lambda *leaves: jnp.stack(leaves), *states)
+
+
+def seed_slice(states: LoopState, index: int) -> LoopState:
+    """One seed's state out of a stacked one."""
+    return jax.tree.map(lambda leaf: leaf[index], states)
+
+
+def to_numpy(tree):
+    return jax.tree.map(np.asarray, tree)

@@ -1,0 +1,106 @@
+"""`LoopConfig`: hyperparameters and ablation switches of Algorithm 1, checked once up front."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from litl.loop.learning import LearningConfig
+
+OBSERVERS = ("vae", "ae", "kmeans")
+DTYPES = ("float32", "float64")
+
+
+class LoopConfigError(ValueError):
+    """A loop setting is invalid; the message says which and how to fix it."""
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopConfig:
+    """Everything that shapes one learning-in-the-loop run (for every seed of it).
+
+    Attributes:
+      episodes: K, alternations of optimization and learning.
+      iterations: M, optimization iterations (simulations with backpropagation) per episode.
+      seeds: S, independent runs batched with `jax.vmap` (the paper uses 10).
+      seed: base seed; the runs use seed, seed + 1, ..., seed + S - 1.
+      steps: simulation steps per rollout (None: the robot's own episode length).
+      observer: ``"vae"`` (the method), ``"ae"`` (plain autoencoder) or ``"kmeans"`` (baseline).
+      latent_dim: r, latent variables of the (V)AE.
+      channels: channel widths of the five encoder convolutions.
+      clusters: k, clusters of the k-means observer.
+      controller_widths: hidden layers of the MLP controller.
+      controller_period: if set, the controller also sees (sin, cos) of a clock of this period (s).
+      learning_rate: Adam step size of the controller parameters θ.
+      design_learning_rate: Adam step size of the design variables φ (Young's modulus per region).
+      snapshot_stride: record the grid velocity every this many steps.
+      replay_capacity: B, snapshots kept in the replay buffer (a ring buffer).
+      learning: the learning phase (N epochs, minibatch b, patience q, Adam step, β).
+      alpha: target step Θ ← α·Θ′ + (1 − α)·Θ after each learning phase.
+      replay: keep a replay buffer; False keeps only the latest rollout's snapshots.
+      one_shot: learn the observer once, from the initial rollout, and never again.
+      simultaneous: instead of alternating, take one observer step on the latest rollout's
+        snapshots at every optimization iteration (no learning phases).
+      codesign: optimize the design φ with the controller; False: control only.
+      dtype: ``"float32"`` or ``"float64"`` (float64 needs `jax.enable_x64`).
+    """
+
+    episodes: int = 10
+    iterations: int = 10
+    seeds: int = 1
+    seed: int = 0
+    steps: int | None = None
+    observer: str = "vae"
+    latent_dim: int = 8
+    channels: tuple[int, ...] = (8, 16, 32, 32, 64)
+    clusters: int = 6
+    controller_widths: tuple[int, ...] = (64, 64)
+    controller_period: float | None = None
+    learning_rate: float = 0.01
+    design_learning_rate: float = 0.5
+    snapshot_stride: int = 10
+    replay_capacity: int = 1000
+    learning: LearningConfig = LearningConfig()
+    alpha: float = 0.5
+    replay: bool = True
+    one_shot: bool = False
+    simultaneous: bool = False
+    codesign: bool = True
+    dtype: str = "float32"
+
+    def __post_init__(self):
+        object.__setattr__(self, "channels", tuple(self.channels))
+        object.__setattr__(self, "controller_widths", tuple(self.controller_widths))
+        positive = ("episodes", "iterations", "seeds", "latent_dim", "clusters", "snapshot_stride",
+                    "replay_capacity")
+        for name in positive:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise LoopConfigError(f"loop.{name} must be a positive integer, got {value!r}")
+        if self.steps is not None and (not isinstance(self.steps, int) or self.steps < 1):
+            raise LoopConfigError(f"loop.steps must be a positive integer or None, got {self.steps!r}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise LoopConfigError(f"loop.seed must be an integer >= 0, got {self.seed!r}")
+        if self.observer not in OBSERVERS:
+            raise LoopConfigError(f"unknown observer {self.observer!r}; choose one of {OBSERVERS}")
+        if len(self.channels) != 5 or any(c < 1 for c in self.channels):
+            raise LoopConfigError(f"loop.channels needs 5 positive widths, got {self.channels}")
+        if any(w < 1 for w in self.controller_widths):
+            raise LoopConfigError(f"controller widths must be positive, got {self.controller_widths}")
+        for name in ("learning_rate", "design_learning_rate"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise LoopConfigError(f"loop.{name} must be a positive number, got {value!r}")
+        if self.controller_period is not None and not self.controller_period > 0:
+            raise LoopConfigError(f"controller_period must be positive or None, got {self.controller_period}")
+        if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha <= 1):
+            raise LoopConfigError(
+                f"alpha must lie in (0, 1] (1 = no target smoothing), got {self.alpha!r}")
+        if self.one_shot and self.simultaneous:
+            raise LoopConfigError("one_shot and simultaneous exclude each other; pick one ablation")
+        if self.dtype not in DTYPES:
+            raise LoopConfigError(f"dtype must be one of {DTYPES}, got {self.dtype!r}")
+
+    @property
+    def learned_observer(self) -> bool:
+        return self.observer in ("vae", "ae")

@@ -1,0 +1,230 @@
+"""The impure shell of a run: seeds batched with vmap, metrics, progress, checkpoints and resume.
+
+    result = run(litl.robots.get("biped"), LoopConfig(seeds=10), "outputs/biped")
+
+writes into the run directory:
+
+* `run.json`: the settings (a rerun on the same directory must use the same ones);
+* `metrics.jsonl`: one JSON line per optimization iteration and seed (see `run`);
+* `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
+* `final/`: the final parameters of every seed (controller, design, observer).
+
+Started again on a directory holding a checkpoint, `run` continues from it and ends with results
+identical to an uninterrupted run: all state lives in the checkpoint, and `metrics.jsonl` is cut
+back to the lines written before it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import pathlib
+import sys
+import time
+
+import jax
+import numpy as np
+import orbax.checkpoint as ocp
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from litl.loop.algorithm import LoopState, make_algorithm, stack_seeds
+from litl.loop.checkpoint import Checkpoints
+from litl.loop.config import LoopConfig
+from litl.loop.progress import Progress
+from litl.robots.robot import Robot
+
+
+class RunDirectoryError(ValueError):
+    """The run directory belongs to a different run."""
+
+
+@dataclasses.dataclass
+class RunResult:
+    """What a finished run leaves in memory (all of it is also on disk).
+
+    Attributes:
+      run_dir: the run directory.
+      state: the final `LoopState` of every seed, leaves with a leading (S,) seed axis.
+      metrics: the metrics records, as written to `metrics.jsonl`.
+    """
+
+    run_dir: pathlib.Path
+    state: LoopState
+    metrics: list[dict]
+
+
+def settings(robot: Robot, config: LoopConfig, steps: int) -> dict:
+    """What must match for a run directory to be resumed."""
+    return {
+        "robot": robot.name,
+        "particles": robot.layout.n_particles,
+        "grid_shape": list(robot.config.grid_shape),
+        "dx": robot.config.dx,
+        "dt": robot.config.dt,
+        "steps": steps,
+        "loop": json.loads(json.dumps(dataclasses.asdict(config))),
+    }
+
+
+def shard_seeds(tree):
+    """Spread the seed axis over all devices when it divides evenly (else leave it be)."""
+    devices = jax.devices()
+    seeds = jax.tree.leaves(tree)[0].shape[0]
+    if len(devices) < 2 or seeds % len(devices):
+        return tree
+    sharding = NamedSharding(Mesh(np.asarray(devices), ("seed",)), PartitionSpec("seed"))
+    return jax.device_put(tree, sharding)
+
+
+def _json_value(value):
+    value = np.asarray(value)
+    if value.ndim:
+        return [_json_value(v) for v in value]
+    if np.issubdtype(value.dtype, np.integer):
+        return int(value)
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
+        stop_after_episodes: int | None = None) -> RunResult:
+    """Run (or resume) Algorithm 1 for `config.seeds` seeds at once.
+
+    Args:
+      robot: the robot and its default task.
+      config: the loop's settings.
+      run_dir: directory for metrics, checkpoints and final parameters (created if needed).
+      progress: show a progress bar on stderr.
+      stop_after_episodes: return after this many episodes in total (the run can be resumed
+        later); None runs all `config.episodes`.
+
+    Returns:
+      A `RunResult`. Each metrics record has: seed, episode, iteration (within the episode),
+      step (global iteration), task_loss and `task/<term>` components, design (per region) with
+      design_mean/min/max, recon_loss_train, recon_loss_val, kl, learning_epochs (of the learning
+      phase that produced the observer in use), retrain_change (Table 1: task objective before
+      the latest retraining minus after it plus one optimization step, so negative means
+      retraining cost progress; on iteration 1 of episodes after a learning phase, else null),
+      health steps and wall_s.
+    """
+    run_dir = pathlib.Path(run_dir)
+    algorithm = make_algorithm(robot, config)
+    wanted = settings(robot, config, algorithm.steps)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    settings_file = run_dir / "run.json"
+    if settings_file.exists():
+        found = json.loads(settings_file.read_text())
+        if found != wanted:
+            changed = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
+            raise RunDirectoryError(
+                f"{run_dir} holds a run with other settings (differences in {changed}); resume it "
+                f"with the same settings or choose a new run directory. Nothing was changed.")
+    else:
+        settings_file.write_text(json.dumps(wanted, indent=1))
+
+    seeds = [config.seed + s for s in range(config.seeds)]
+    batched = lambda f: jax.jit(jax.vmap(f))
+    bootstrap, optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
+    learn, evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
+    retrains = config.learned_observer and not (config.one_shot or config.simultaneous)
+
+    checkpoints = Checkpoints(run_dir / "checkpoints")
+    metrics_file = run_dir / "metrics.jsonl"
+    template = stack_seeds([algorithm.init(seed) for seed in seeds])
+    counters = {"episodes_done": 0, "metrics_lines": 0,
+                "loss_before_retrain": np.full(config.seeds, np.nan)}
+    if checkpoints.latest() is not None:
+        state, counters = checkpoints.restore(template, counters)
+        records = _read_metrics(metrics_file, int(counters["metrics_lines"]))
+    else:
+        state, _ = bootstrap(shard_seeds(template))
+        records = []
+        checkpoints.save(0, state, counters)
+    state = shard_seeds(state)
+    with open(metrics_file, "w") as out:
+        out.writelines(json.dumps(r) + "\n" for r in records)
+
+    episodes = config.episodes if stop_after_episodes is None else min(
+        stop_after_episodes, config.episodes)
+    bar = Progress(config.episodes, config.iterations, enabled=progress)
+    start = time.perf_counter()
+    before = np.asarray(counters["loss_before_retrain"], np.float64)
+    with open(metrics_file, "a") as out:
+        for episode in range(int(counters["episodes_done"]), episodes):
+            stats = jax.tree.map(np.asarray, state.stats)
+            for iteration in range(config.iterations):
+                state, metrics = optimize(state)
+                metrics = jax.tree.map(np.asarray, metrics)
+                design = np.asarray(state.design)
+                for s, seed in enumerate(seeds):
+                    record = {
+                        "seed": seed, "episode": episode, "iteration": iteration,
+                        "step": episode * config.iterations + iteration,
+                        **{k: _json_value(v[s]) for k, v in metrics.items()},
+                        "design": _json_value(design[s]),
+                        "recon_loss_train": _json_value(stats.recon_loss_train[s]),
+                        "recon_loss_val": _json_value(stats.recon_loss_val[s]),
+                        "kl": _json_value(stats.kl[s]),
+                        "learning_epochs": _json_value(stats.epochs_used[s]),
+                        "retrain_change": None,
+                        "wall_s": round(time.perf_counter() - start, 3),
+                    }
+                    if iteration == 1 and np.isfinite(before[s]):
+                        record["retrain_change"] = float(before[s] - metrics["task_loss"][s])
+                    out.write(json.dumps(record) + "\n")
+                    records.append(record)
+                out.flush()
+                bar.update(episode, iteration, float(np.nanmean(metrics["task_loss"])))
+                _warn_unhealthy(metrics, seeds, episode, iteration)
+            if retrains:
+                before = np.asarray(evaluate(state), np.float64)
+                state, _ = learn(state)
+            else:
+                before = np.full(config.seeds, np.nan)
+            checkpoints.save(episode + 1, state, {
+                "episodes_done": episode + 1, "metrics_lines": len(records),
+                "loss_before_retrain": before})
+    bar.close()
+    checkpoints.close()
+    if episodes == config.episodes:
+        _save_final(run_dir / "final", state)
+    return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
+
+
+def _read_metrics(path: pathlib.Path, lines: int) -> list[dict]:
+    """The first `lines` records of a metrics file (those covered by the checkpoint)."""
+    kept = path.read_text().splitlines()[:lines] if path.exists() else []
+    if len(kept) < lines:
+        raise RunDirectoryError(
+            f"{path} has {len(kept)} lines but the checkpoint expects {lines}; it was edited or "
+            f"truncated. Restore it or start a new run directory.")
+    return [json.loads(line) for line in kept]
+
+
+def _warn_unhealthy(metrics, seeds, episode, iteration):
+    for s, seed in enumerate(seeds):
+        bad, escaped = metrics["first_nonfinite_step"][s], metrics["first_escape_step"][s]
+        if bad < 0 and escaped < 0:
+            continue
+        what = f"blew up (NaN) at step {bad}" if bad >= 0 else f"lost particles at step {escaped}"
+        print(f"warning: seed {seed}, episode {episode}, iteration {iteration}: the simulation "
+              f"{what}; lower the learning rates or the actuator strength", file=sys.stderr)
+
+
+def _save_final(path: pathlib.Path, state: LoopState):
+    final = {"controller": state.controller, "design": state.design, "observer": state.observer}
+    with ocp.StandardCheckpointer() as saver:
+        saver.save(path.absolute(), jax.tree.map(np.asarray, final), force=True)
+
+
+def load_final(run_dir, robot: Robot, config: LoopConfig) -> dict:
+    """The final {controller, design, observer} of every seed saved by `run`."""
+    algorithm = make_algorithm(robot, config)
+    template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
+    template = {"controller": template.controller, "design": template.design,
+                "observer": template.observer}
+    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, jax.tree.map(np.asarray, template))
+    with ocp.StandardCheckpointer() as loader:
+        return loader.restore((pathlib.Path(run_dir) / "final").absolute(), abstract)
+
