@@ -1,0 +1,124 @@
+"""End-to-end learning-in-the-loop runs at tiny size: observers, ablations, metrics, resume."""
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import jax
+import numpy as np
+import pytest
+
+from litl.loop.run import RunDirectoryError, load_final, run
+from tests.loop.tiny import tiny_config, tiny_robot
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+KEYS = {"seed", "episode", "iteration", "step", "task_loss", "task/distance", "design",
+        "design_mean", "design_min", "design_max", "recon_loss_train", "recon_loss_val", "kl",
+        "learning_epochs", "retrain_change", "wall_s", "first_nonfinite_step"}
+
+
+def without_time(records):
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
+
+
+def read_metrics(run_dir):
+    return [json.loads(line) for line in (pathlib.Path(run_dir) / "metrics.jsonl").read_text().splitlines()]
+
+
+@pytest.fixture(scope="module")
+def vae_run(tmp_path_factory):
+    return run(tiny_robot(), tiny_config(episodes=3), tmp_path_factory.mktemp("vae"), progress=False)
+
+
+def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
+    records = read_metrics(vae_run.run_dir)
+    assert without_time(records) == without_time(vae_run.metrics)
+    assert len(records) == 3 * 2 * 2   # episodes x iterations x seeds
+    assert [(r["episode"], r["iteration"], r["seed"]) for r in records[:4]] == [
+        (0, 0, 0), (0, 0, 1), (0, 1, 0), (0, 1, 1)]
+    for r in records:
+        assert KEYS <= set(r)
+        assert np.isfinite(r["task_loss"]) and r["first_nonfinite_step"] == -1
+        assert r["learning_epochs"] >= 1 and r["recon_loss_val"] > 0 and r["kl"] > 0
+        assert 5.0 <= r["design_min"] <= r["design_max"] <= 30.0 and len(r["design"]) == 4
+        # Table 1: measured on iteration 1 of every episode that follows a learning phase.
+        assert (r["retrain_change"] is not None) == (r["iteration"] == 1 and r["episode"] >= 1)
+    # The seeds differ, and the design moved (co-design is on by default).
+    assert records[0]["task_loss"] != records[1]["task_loss"]
+    assert records[-1]["design"] != records[0]["design"]
+    # The observer was retrained: its statistics change between episodes.
+    assert records[0]["recon_loss_val"] != records[4]["recon_loss_val"]
+
+
+def test_final_parameters_are_saved_and_load(vae_run):
+    final = load_final(vae_run.run_dir, tiny_robot(), tiny_config(episodes=3))
+    np.testing.assert_array_equal(final["design"], vae_run.state.design)
+    for a, b in zip(jax.tree.leaves(final["controller"]), jax.tree.leaves(vae_run.state.controller)):
+        np.testing.assert_array_equal(a, b)
+    assert (vae_run.run_dir / "run.json").exists()
+
+
+def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
+    run_dir = tmp_path / "killed"
+    process = subprocess.Popen([sys.executable, "-m", "tests.loop.tiny", str(run_dir), "3"], cwd=ROOT,
+                               env={**os.environ, "PYTHONPATH": str(ROOT)},
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 300
+    metrics = run_dir / "metrics.jsonl"
+    # Kill inside episode 2 (4 lines per episode): after its first iteration was written.
+    while not (metrics.exists() and metrics.read_text().count("\n") >= 5):
+        assert process.poll() is None, process.stderr.read().decode()[-2000:]
+        assert time.monotonic() < deadline, "the run never reached its second episode"
+        time.sleep(0.002)
+    process.send_signal(signal.SIGKILL)
+    assert process.wait() == -signal.SIGKILL
+    written = len(read_metrics(run_dir))
+    assert written < len(vae_run.metrics), "the run finished before it was killed"
+
+    resumed = run(tiny_robot(), tiny_config(episodes=3), run_dir, progress=False)
+    assert without_time(read_metrics(run_dir)) == without_time(read_metrics(vae_run.run_dir))
+    for a, b in zip(jax.tree.leaves(resumed.state), jax.tree.leaves(vae_run.state)):
+        np.testing.assert_array_equal(a, b)   # bitwise
+
+
+def test_a_run_directory_refuses_other_settings(vae_run):
+    before = (vae_run.run_dir / "metrics.jsonl").read_text()
+    with pytest.raises(RunDirectoryError, match="other settings .*'loop'.*choose a new run directory"):
+        run(tiny_robot(), tiny_config(episodes=3, alpha=0.9), vae_run.run_dir, progress=False)
+    assert (vae_run.run_dir / "metrics.jsonl").read_text() == before
+
+
+def test_kmeans_baseline_runs_without_learning(tmp_path):
+    result = run(tiny_robot(), tiny_config(observer="kmeans"), tmp_path, progress=False)
+    assert len(result.metrics) == 2 * 2 * 2
+    for r in result.metrics:
+        assert np.isfinite(r["task_loss"]) and r["recon_loss_val"] is None
+        assert r["learning_epochs"] == 0 and r["retrain_change"] is None
+    assert result.state.observer.averaging.shape == (2, 3, tiny_robot().layout.n_particles)
+
+
+def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
+    config = tiny_config(observer="ae", simultaneous=True, codesign=False)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    first = result.metrics[0]
+    for r in result.metrics:
+        assert r["kl"] == 0.0                                     # a plain autoencoder
+        assert np.isfinite(r["simultaneous_recon_loss"])          # an observer step per iteration
+        assert r["recon_loss_val"] == first["recon_loss_val"] or r["seed"] != first["seed"]
+        assert r["retrain_change"] is None                        # no learning phases
+        assert r["design"] == [20.0] * 4                          # control only
+    assert result.metrics[0]["simultaneous_recon_loss"] != result.metrics[-2]["simultaneous_recon_loss"]
+
+
+def test_one_shot_observer_without_replay(tmp_path):
+    config = tiny_config(one_shot=True, replay=False)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    for seed in (0, 1):
+        stats = {(r["recon_loss_val"], r["learning_epochs"]) for r in result.metrics if r["seed"] == seed}
+        assert len(stats) == 1   # learned once, at the start
+    # Without replay the buffer holds only the latest rollout's 40 / 10 snapshots.
+    np.testing.assert_array_equal(result.state.buffer.count, [4, 4])
