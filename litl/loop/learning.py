@@ -1,0 +1,377 @@
+"""Learning phase of Algorithm 1: train the observer copy Θ′ on the replay buffer, then the target
+update Θ ← α·Θ′ + (1 − α)·Θ.
+
+Written for one seed and batched with `jax.vmap`. The buffer has a static capacity and a dynamic
+`count`, so the train/validation split, the minibatches and early stopping are all masks:
+
+* Split: the valid slots are put in a uniformly random order; the first ceil(count/2) form the
+  training half, the other floor(count/2) the validation half (drawn once per phase). Every random
+  draw is tied to a slot index, so the result depends on the valid entries and their slots, not
+  on the buffer's capacity or its invalid slots (up to float rounding of the scale's sum).
+* Epochs: each epoch shuffles the training half again and walks it in minibatches of b drawn
+  without replacement. A last partial minibatch is used, its loss averaged over its real entries
+  only (a mask, not drop-partial: early in a run the buffer may hold fewer than b entries).
+  Minibatch slots past the end of the training half are padding: their inputs are zeroed, their
+  losses masked out, and a minibatch with no real entry does not step the optimizer.
+* Early stopping: after every epoch the validation loss is the "total" VAE loss (reconstruction +
+  β·KL per value, the objective being trained) with the encoder means (no sampling noise). The
+  parameters of the epoch with the lowest validation loss so far are kept; training stops when
+  `patience` epochs in a row bring no strictly lower loss, or after `max_epochs`. The initial Θ′ is
+  not a candidate: the phase returns the best of epochs 1..N, as in the paper.
+* The loop is a `lax.while_loop`; under `vmap` a seed that has stopped keeps its carry unchanged
+  while others go on, so batched seeds equal separate runs.
+* Fewer than two valid entries leave nothing to validate on: the phase then returns the
+  parameters unchanged with `epochs_used == 0`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from litl.loop.replay import ReplayBuffer
+from litl.models.vae import AutoencoderParams, ConvAutoencoder, losses
+
+
+@dataclasses.dataclass(frozen=True)
+class LearningConfig:
+    """Hyperparameters of one learning phase.
+
+    Attributes:
+      max_epochs: N, the most passes over the training half.
+      batch_size: b, snapshots per minibatch.
+      patience: q, epochs without a lower validation loss before stopping.
+      learning_rate: Adam step size (0 is allowed: nothing is learned).
+      beta: weight of the KL term in the VAE loss.
+    """
+
+    max_epochs: int = 100
+    batch_size: int = 32
+    patience: int = 5
+    learning_rate: float = 1e-3
+    beta: float = 1.0
+
+    def __post_init__(self):
+        for name in ("max_epochs", "batch_size", "patience"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive int, got {value!r}")
+        for name in ("learning_rate", "beta"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0:
+                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+
+
+@struct.dataclass
+class Split:
+    """Random even split of the valid buffer slots; padded to static sizes.
+
+    With C the capacity, T = ceil(C/2) and V = floor(C/2) bound the two halves for any count.
+
+    Attributes:
+      train: (T,) int32 buffer slots of the training half (first `train_mask.sum()` are real).
+      train_mask: (T,) bool, True for real training slots.
+      validation: (V,) int32 buffer slots of the validation half.
+      validation_mask: (V,) bool, True for real validation slots.
+    """
+
+    train: jnp.ndarray
+    train_mask: jnp.ndarray
+    validation: jnp.ndarray
+    validation_mask: jnp.ndarray
+
+
+@struct.dataclass
+class LearningStats:
+    """Losses at the returned (best) parameters and how the phase went; all () arrays.
+
+    Losses over an empty half are NaN.
+
+    Attributes:
+      recon_loss_train: mean per-value reconstruction error over the training half (encoder
+        means, no sampling noise).
+      recon_loss_val: the same over the validation half.
+      kl: mean KL divergence per snapshot over the validation half.
+      val_loss: the early-stopping criterion, recon_loss_val + beta * kl / values per snapshot.
+      epochs_used: () int32 epochs run before stopping.
+      best_epoch: () int32 epoch (1-based) whose parameters were kept; 0 if no epoch ran or none
+        reached a finite validation loss (the parameters are then returned untrained).
+    """
+
+    recon_loss_train: jnp.ndarray
+    recon_loss_val: jnp.ndarray
+    kl: jnp.ndarray
+    val_loss: jnp.ndarray
+    epochs_used: jnp.ndarray
+    best_epoch: jnp.ndarray
+
+
+@struct.dataclass
+class _LearningState:
+    """Carry of the epoch loop.
+
+    Attributes:
+      epoch: () int32 epochs completed.
+      network: flax parameters being trained.
+      opt_state: Adam state of `network`.
+      best_network: parameters of the best validation epoch so far.
+      best_loss: () lowest validation loss so far (inf before the first epoch).
+      best_epoch: () int32 epoch that reached it.
+      stale_epochs: () int32 epochs since the last improvement.
+    """
+
+    epoch: jnp.ndarray
+    network: dict
+    opt_state: optax.OptState
+    best_network: dict
+    best_loss: jnp.ndarray
+    best_epoch: jnp.ndarray
+    stale_epochs: jnp.ndarray
+
+
+def _broadcast_mask(mask, like):
+    """(B,) mask -> broadcastable against (B, ...) `like`."""
+    return mask.reshape(mask.shape + (1,) * (like.ndim - 1))
+
+
+def fit_scale_masked(params: AutoencoderParams, fields, mask, floor=1e-6) -> AutoencoderParams:
+    """`vae.fit_scale` over the snapshots where `mask` is True only.
+
+    Args:
+      fields: (B, *grid_shape, d) velocity fields; entries where mask is False may hold anything.
+      mask: (B,) bool, which fields to use.
+    """
+    # Select before squaring: stale slots may hold huge values whose square is inf, and inf * 0
+    # would poison the sum.
+    fields = jnp.where(_broadcast_mask(mask, fields), fields, 0)
+    speed_sq = jnp.sum(fields**2, axis=-1)
+    occupied = speed_sq > 0
+    rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
+    return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
+
+
+def _slot_uniform(key, slots):
+    """(n,) slot indices -> (n,) uniforms in [0, 1), each drawn from the key and its slot alone.
+
+    A slot's draw does not depend on the capacity or on the other slots, so the split and the
+    minibatches of the valid entries are the same whatever the buffer's capacity.
+    """
+    return jax.vmap(lambda slot: jax.random.uniform(jax.random.fold_in(key, slot)))(slots)
+
+
+def random_split(count, capacity: int, key) -> Split:
+    """Split the valid slots [0, count) randomly and evenly into training and validation halves.
+
+    Args:
+      count: () int number of valid slots (dynamic).
+      capacity: C, the number of slots (static).
+      key: PRNG key.
+    """
+    slots = jnp.arange(capacity)
+    # Random keys for valid slots, and a larger one for the rest, so sorting puts the valid slots
+    # first in a uniformly random order.
+    order = jnp.argsort(jnp.where(slots < count, _slot_uniform(key, slots), 2.0))
+    order = order.astype(jnp.int32)
+    n_validation = count // 2
+    n_train = count - n_validation
+    train_size, validation_size = capacity - capacity // 2, capacity // 2
+    # n_train + validation_size <= capacity, so the slice never runs past the end.
+    validation = jax.lax.dynamic_slice(order, (n_train,), (validation_size,))
+    return Split(
+        train=order[:train_size],
+        train_mask=jnp.arange(train_size) < n_train,
+        validation=validation,
+        validation_mask=jnp.arange(validation_size) < n_validation,
+    )
+
+
+def _chunks(slots, mask, size):
+    """(n,) slots and mask -> (ceil(n/size), size) each, padded with slot 0 and False."""
+    n_chunks = -(-slots.shape[0] // size)
+    pad = n_chunks * size - slots.shape[0]
+    slots = jnp.pad(slots, (0, pad)).reshape(n_chunks, size)
+    mask = jnp.pad(mask, (0, pad)).reshape(n_chunks, size)
+    return slots, mask
+
+
+def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
+    """Build `learn(params, buffer, key) -> (best_params, LearningStats)`.
+
+    `learn` refits the input scale on the valid buffer entries, trains the network of `params` (Θ′)
+    with a fresh Adam state on a random training half, and returns the parameters of the epoch with
+    the lowest validation loss (see the module docstring for the exact rules). It is pure, jittable
+    and vmappable over seeds (params, buffer and key batched together).
+
+    Args:
+      model: the observer architecture.
+      config: the phase's hyperparameters.
+    """
+    if not isinstance(config, LearningConfig):
+        raise ValueError(f"config must be a LearningConfig, got {type(config).__name__}")
+    optimizer = optax.adam(config.learning_rate)
+    batch_size, beta = config.batch_size, config.beta
+
+    def per_snapshot_losses(params, fields, key):
+        """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.losses` each)."""
+        if key is None:
+            return jax.vmap(lambda f: losses(model, params, f[None], None, beta))(fields)
+        keys = jax.random.split(key, fields.shape[0])
+        return jax.vmap(lambda f, k: losses(model, params, f[None], k, beta))(fields, keys)
+
+    def gather(params, buffer, slots, mask):
+        # Padding slots point at arbitrary data; zero them so nothing non-finite enters the net.
+        fields = buffer.fields[slots].astype(params.scale.dtype)
+        return jnp.where(_broadcast_mask(mask, fields), fields, 0)
+
+    def masked_means(params, buffer, slots, mask):
+        """Mean recon, KL and total (no sampling noise) over the masked slots; NaN if none."""
+
+        def body(sums, chunk):
+            chunk_slots, chunk_mask = chunk
+            out = per_snapshot_losses(params, gather(params, buffer, chunk_slots, chunk_mask), None)
+            return {
+                k: sums[k] + jnp.sum(jnp.where(chunk_mask, out[k], 0)).astype(sums[k].dtype)
+                for k in sums
+            }, None
+
+        zero = jnp.zeros((), params.scale.dtype)
+        sums, _ = jax.lax.scan(
+            body, {"recon": zero, "kl": zero, "total": zero}, _chunks(slots, mask, batch_size)
+        )
+        n = jnp.sum(mask)
+        return {k: jnp.where(n > 0, v / jnp.maximum(n, 1), jnp.nan) for k, v in sums.items()}
+
+    def learn(params: AutoencoderParams, buffer: ReplayBuffer, key):
+        """One learning phase for one seed.
+
+        Args:
+          params: Θ′, the observer copy to train (its scale is refitted).
+          buffer: replay buffer of (capacity, *model.grid_shape, d) snapshots.
+          key: PRNG key for the split, shuffling and VAE sampling noise.
+
+        Returns:
+          The best parameters and `LearningStats` computed at them.
+        """
+        expected = tuple(model.grid_shape) + (model.dim,)
+        if tuple(buffer.fields.shape[1:]) != expected:
+            raise ValueError(
+                f"buffer snapshots have shape {tuple(buffer.fields.shape[1:])}, but the model "
+                f"expects {expected}"
+            )
+        capacity = buffer.capacity
+        split_key, epochs_key = jax.random.split(key)
+        split = random_split(buffer.count, capacity, split_key)
+        # Nothing to validate on with fewer than two entries: keep Θ′ as it is.
+        enough = buffer.count >= 2
+        fitted = fit_scale_masked(params, buffer.fields, jnp.arange(capacity) < buffer.count)
+        params = params.replace(scale=jnp.where(enough, fitted.scale, params.scale))
+
+        def train_minibatch(carry, batch):
+            network, opt_state, batch_key = carry
+            slots, mask, index = batch
+            fields = gather(params, buffer, slots, mask)
+
+            def objective(network):
+                out = per_snapshot_losses(
+                    params.replace(network=network), fields, jax.random.fold_in(batch_key, index)
+                )
+                return jnp.sum(jnp.where(mask, out["total"], 0)) / jnp.maximum(jnp.sum(mask), 1)
+
+            grads = jax.grad(objective)(network)
+            updates, new_opt_state = optimizer.update(grads, opt_state, network)
+            new_network = optax.apply_updates(network, updates)
+            # An all-padding minibatch must not step Adam: its moments and step count would move.
+            real = jnp.any(mask)
+            network, opt_state = jax.tree.map(
+                lambda new, old: jnp.where(real, new, old),
+                (new_network, new_opt_state),
+                (network, opt_state),
+            )
+            return (network, opt_state, batch_key), None
+
+        def run_epoch(state: _LearningState) -> _LearningState:
+            shuffle_key, batch_key = jax.random.split(jax.random.fold_in(epochs_key, state.epoch))
+            noise = _slot_uniform(shuffle_key, split.train)
+            order = jnp.argsort(jnp.where(split.train_mask, noise, 2.0))
+            slots, mask = _chunks(split.train[order], split.train_mask, batch_size)
+            indices = jnp.arange(slots.shape[0])
+            (network, opt_state, _), _ = jax.lax.scan(
+                train_minibatch, (state.network, state.opt_state, batch_key), (slots, mask, indices)
+            )
+            validation = masked_means(
+                params.replace(network=network), buffer, split.validation, split.validation_mask
+            )["total"].astype(state.best_loss.dtype)
+            epoch = state.epoch + 1
+            improved = validation < state.best_loss
+            return _LearningState(
+                epoch=epoch,
+                network=network,
+                opt_state=opt_state,
+                best_network=jax.tree.map(
+                    lambda new, old: jnp.where(improved, new, old), network, state.best_network
+                ),
+                best_loss=jnp.where(improved, validation, state.best_loss),
+                best_epoch=jnp.where(improved, epoch, state.best_epoch),
+                stale_epochs=jnp.where(improved, 0, state.stale_epochs + 1),
+            )
+
+        def keep_going(state: _LearningState):
+            return (
+                enough
+                & (state.epoch < config.max_epochs)
+                & (state.stale_epochs < config.patience)
+            )
+
+        zero = jnp.zeros((), jnp.int32)
+        initial = _LearningState(
+            epoch=zero,
+            network=params.network,
+            opt_state=optimizer.init(params.network),
+            best_network=params.network,
+            best_loss=jnp.asarray(jnp.inf, params.scale.dtype),
+            best_epoch=zero,
+            stale_epochs=zero,
+        )
+        final = jax.lax.while_loop(keep_going, run_epoch, initial)
+
+        best = params.replace(network=final.best_network)
+        train = masked_means(best, buffer, split.train, split.train_mask)
+        validation = masked_means(best, buffer, split.validation, split.validation_mask)
+        stats = LearningStats(
+            recon_loss_train=train["recon"],
+            recon_loss_val=validation["recon"],
+            kl=validation["kl"],
+            val_loss=validation["total"],
+            epochs_used=final.epoch,
+            best_epoch=final.best_epoch,
+        )
+        return best, stats
+
+    return learn
+
+
+def soft_update(target: AutoencoderParams, online: AutoencoderParams, alpha) -> AutoencoderParams:
+    """Target update Θ ← α·Θ′ + (1 − α)·Θ over every leaf (network weights and scale).
+
+    Args:
+      target: Θ, the observer used during episodes.
+      online: Θ′, the copy trained in the learning phase.
+      alpha: step size in [0, 1] (a Python number is checked; an array, e.g. per seed, is not).
+        α = 1 returns `online`, α = 0 returns `target`.
+    """
+    if isinstance(alpha, (int, float)) and not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"alpha must be in [0, 1], got {alpha!r}")
+
+    def step(old, new):
+        a = jnp.asarray(alpha, new.dtype)
+        # alpha * new + (1 - alpha) * old rather than old + alpha * (new - old): exact at alpha = 1.
+        return a * new + (1 - a) * old
+
+    return jax.tree.map(step, target, online)

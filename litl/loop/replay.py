@@ -1,0 +1,123 @@
+"""Experience replay buffer of grid velocity snapshots (paper Sec. 4, Alg. 1 line "Store Υ_j in I").
+
+A fixed-capacity ring buffer held as a pytree, so that adding snapshots is jittable and a batch of
+seeds is one `jax.vmap`. Its arrays keep a static shape; how many slots hold data is the dynamic
+`count`. Slots fill in order 0, 1, ..., so before the buffer is full the valid slots are exactly
+`[0, count)`, and once full every slot is valid and `cursor` points at the oldest entry.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+
+@struct.dataclass
+class ReplayBuffer:
+    """Ring buffer of velocity snapshots for one seed.
+
+    Attributes:
+      fields: (capacity, *grid_shape, d) stored snapshots; slots outside the valid ones hold stale
+        or zero data and must be masked (`valid_mask`).
+      count: () int32 number of valid entries, at most capacity.
+      cursor: () int32 slot the next snapshot is written to (the oldest entry once full).
+    """
+
+    fields: jnp.ndarray
+    count: jnp.ndarray
+    cursor: jnp.ndarray
+
+    @property
+    def capacity(self) -> int:
+        """B, the number of slots (for one seed; under an outer vmap call it inside the vmap)."""
+        return self.fields.shape[0]
+
+    @classmethod
+    def empty(cls, capacity: int, grid_shape, dim: int, dtype=jnp.float32) -> "ReplayBuffer":
+        """An empty buffer of `capacity` snapshots of shape (*grid_shape, dim).
+
+        For several seeds, build one per seed under `jax.vmap` or broadcast its leaves.
+        """
+        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
+            raise ValueError(f"capacity must be a positive int, got {capacity!r}")
+        grid_shape = tuple(grid_shape)
+        if len(grid_shape) not in (2, 3) or any(int(n) < 1 for n in grid_shape):
+            raise ValueError(f"grid_shape must be 2 or 3 positive sizes, got {grid_shape!r}")
+        if dim != len(grid_shape):
+            raise ValueError(
+                f"dim must equal the number of grid axes ({len(grid_shape)}), got {dim!r}"
+            )
+        return cls(
+            fields=jnp.zeros((capacity,) + grid_shape + (dim,), dtype),
+            count=jnp.zeros((), jnp.int32),
+            cursor=jnp.zeros((), jnp.int32),
+        )
+
+
+def _check_snapshots(buffer: ReplayBuffer, snapshots) -> jnp.ndarray:
+    snapshots = jnp.asarray(snapshots)
+    expected = tuple(buffer.fields.shape[1:])
+    if snapshots.ndim != buffer.fields.ndim or tuple(snapshots.shape[1:]) != expected:
+        raise ValueError(
+            f"snapshots must have shape (k, {', '.join(map(str, expected))}) to fit this buffer, "
+            f"got {tuple(snapshots.shape)}"
+        )
+    return snapshots.astype(buffer.fields.dtype)
+
+
+def add(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
+    """Append k snapshots, overwriting the oldest entries once the buffer is full.
+
+    The result is the same as writing the snapshots one at a time: if k exceeds the capacity only
+    the newest `capacity` snapshots survive. Jittable; k is static.
+
+    Args:
+      buffer: the buffer to add to.
+      snapshots: (k, *grid_shape, d) velocity fields, oldest first.
+
+    Returns:
+      The buffer with count = min(count + k, capacity) and cursor advanced by k (mod capacity).
+    """
+    snapshots = _check_snapshots(buffer, snapshots)
+    capacity, k = buffer.capacity, snapshots.shape[0]
+    if k == 0:
+        return buffer
+    # Earlier snapshots of an oversize add would be overwritten by later ones; skip writing them so
+    # that the scatter has unique slots (duplicate slots in a scatter are written in no set order).
+    skipped = max(k - capacity, 0)
+    kept = snapshots[skipped:]
+    slots = (buffer.cursor + skipped + jnp.arange(kept.shape[0])) % capacity
+    return buffer.replace(
+        fields=buffer.fields.at[slots].set(kept, unique_indices=True),
+        count=jnp.minimum(buffer.count + k, capacity).astype(jnp.int32),
+        cursor=((buffer.cursor + k) % capacity).astype(jnp.int32),
+    )
+
+
+def clear(buffer: ReplayBuffer) -> ReplayBuffer:
+    """The same buffer emptied: zero fields, count and cursor."""
+    return buffer.replace(
+        fields=jnp.zeros_like(buffer.fields),
+        count=jnp.zeros_like(buffer.count),
+        cursor=jnp.zeros_like(buffer.cursor),
+    )
+
+
+def replace_with(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
+    """Keep only `snapshots` (k, *grid_shape, d): the "no replay buffer" ablation.
+
+    Each learning phase then sees only the latest rollout (its newest `capacity` snapshots).
+    """
+    return add(clear(buffer), snapshots)
+
+
+def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:
+    """(capacity,) bool, True where a slot holds a stored snapshot."""
+    # Slots fill from 0 upwards and never empty again, so the valid ones are a prefix.
+    return jnp.arange(buffer.capacity) < buffer.count
+
+
+def valid_fields(buffer: ReplayBuffer) -> jax.Array:
+    """(count, *grid_shape, d) the stored snapshots in slot order; not jittable (dynamic shape)."""
+    return buffer.fields[: int(buffer.count)]

@@ -1,0 +1,93 @@
+"""Ring-buffer replay of velocity snapshots."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from litl.loop import replay
+from litl.loop.replay import ReplayBuffer
+
+GRID = (4, 3)
+
+
+def snapshots(start, k):
+    """(k, *GRID, 2) snapshots whose every value is its index start, start+1, ... (identifiable)."""
+    ids = jnp.arange(start, start + k, dtype=jnp.float32)
+    return jnp.broadcast_to(ids[:, None, None, None], (k,) + GRID + (2,))
+
+
+def stored_ids(buffer):
+    """Set of snapshot ids in the valid slots."""
+    return set(np.asarray(replay.valid_fields(buffer))[:, 0, 0, 0].astype(int).tolist())
+
+
+def test_empty_buffer():
+    buffer = ReplayBuffer.empty(5, GRID, 2)
+    assert buffer.fields.shape == (5,) + GRID + (2,)
+    assert buffer.capacity == 5 and int(buffer.count) == 0 and int(buffer.cursor) == 0
+    assert not np.any(replay.valid_mask(buffer))
+
+
+def test_keeps_newest_across_wraparound():
+    add = jax.jit(replay.add)
+    buffer = ReplayBuffer.empty(5, GRID, 2)
+    buffer = add(buffer, snapshots(0, 3))
+    assert (int(buffer.count), int(buffer.cursor)) == (3, 3)
+    assert stored_ids(buffer) == {0, 1, 2}
+    np.testing.assert_array_equal(replay.valid_mask(buffer), [1, 1, 1, 0, 0])
+    buffer = add(buffer, snapshots(3, 3))  # wraps: 0 is overwritten
+    assert (int(buffer.count), int(buffer.cursor)) == (5, 1)
+    assert stored_ids(buffer) == {1, 2, 3, 4, 5}
+    buffer = add(buffer, snapshots(6, 3))
+    assert (int(buffer.count), int(buffer.cursor)) == (5, 4)
+    assert stored_ids(buffer) == {4, 5, 6, 7, 8}
+    assert np.all(replay.valid_mask(buffer))
+
+
+def test_oversize_add_keeps_newest_like_one_at_a_time():
+    buffer = replay.add(ReplayBuffer.empty(4, GRID, 2), snapshots(0, 2))
+    oversize = jax.jit(replay.add)(buffer, snapshots(2, 11))
+    assert (int(oversize.count), int(oversize.cursor)) == (4, (2 + 11) % 4)
+    assert stored_ids(oversize) == {9, 10, 11, 12}
+    one_at_a_time = buffer
+    for i in range(2, 13):
+        one_at_a_time = replay.add(one_at_a_time, snapshots(i, 1))
+    np.testing.assert_array_equal(oversize.fields, one_at_a_time.fields)
+    assert int(one_at_a_time.cursor) == int(oversize.cursor)
+
+
+def test_replace_with_keeps_only_latest_and_clear_empties():
+    buffer = replay.add(ReplayBuffer.empty(6, GRID, 2), snapshots(0, 5))
+    latest = jax.jit(replay.replace_with)(buffer, snapshots(100, 2))
+    assert int(latest.count) == 2 and stored_ids(latest) == {100, 101}
+    assert stored_ids(replay.replace_with(buffer, snapshots(200, 9))) == set(range(203, 209))
+    cleared = replay.clear(buffer)
+    empty = ReplayBuffer.empty(6, GRID, 2)
+    for a, b in zip(jax.tree.leaves(cleared), jax.tree.leaves(empty)):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_vmapped_over_seeds_equals_separate_buffers():
+    buffers = jax.vmap(lambda _: ReplayBuffer.empty(3, GRID, 2))(jnp.arange(2))
+    batch = jnp.stack([snapshots(0, 4), snapshots(10, 4)])
+    added = jax.jit(jax.vmap(replay.add))(buffers, batch)
+    for seed in range(2):
+        single = replay.add(ReplayBuffer.empty(3, GRID, 2), batch[seed])
+        for a, b in zip(jax.tree.leaves(added), jax.tree.leaves(single)):
+            np.testing.assert_array_equal(a[seed], b)
+
+
+def test_bad_inputs():
+    for capacity in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="capacity must be a positive int"):
+            ReplayBuffer.empty(capacity, GRID, 2)
+    with pytest.raises(ValueError, match="dim must equal"):
+        ReplayBuffer.empty(4, GRID, 3)
+    with pytest.raises(ValueError, match="grid_shape"):
+        ReplayBuffer.empty(4, (8,), 1)
+    buffer = ReplayBuffer.empty(4, GRID, 2)
+    with pytest.raises(ValueError, match=r"snapshots must have shape \(k, 4, 3, 2\)"):
+        replay.add(buffer, jnp.zeros((2, 4, 4, 2)))
+    with pytest.raises(ValueError, match="snapshots must have shape"):
+        replay.replace_with(buffer, jnp.zeros(GRID + (2,)))  # a single field without the k axis
