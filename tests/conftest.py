@@ -1,5 +1,18 @@
-import jax
-import pytest
+import os
+import pathlib
+
+# XLA compilations are most of the suite's time, and several tests compile the same programs
+# (a run, its killed copy in another process, its resumption). JAX's persistent cache lets them
+# share: it is keyed by the compiled program, so a stale entry is never used. Subprocesses inherit
+# the setting through the environment.
+os.environ.setdefault(
+    "JAX_COMPILATION_CACHE_DIR",
+    str(pathlib.Path(__file__).resolve().parents[1] / ".pytest_cache" / "jax-compilation"))
+
+import jax  # noqa: E402
+import pytest  # noqa: E402
+
+jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
 
 
 @pytest.fixture
