@@ -1,0 +1,5 @@
+import sys
+
+from litl.report.cli import main
+
+sys.exit(main())

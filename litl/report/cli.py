@@ -1,0 +1,47 @@
+"""`python -m litl.report DIR [--out OUT] [--level 0.9]`: write a report and print its summary."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from litl.report.runs import ReportError
+from litl.report.summary import format_number, write_report
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m litl.report",
+        description="Aggregate the seeds and runs of a run or Hydra multirun directory into the "
+                    "paper's plots (task loss with confidence bands, reconstruction loss), "
+                    "Table 1 (markdown and CSV) and a summary (markdown and JSON).")
+    parser.add_argument("dir", help="a run directory or a multirun directory holding several")
+    parser.add_argument("--out", default=None, help="where to write the report (default: DIR)")
+    parser.add_argument("--level", type=float, default=0.9,
+                        help="confidence level of the bands and intervals (default: 0.9)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; returns 0, or exits with status 2 and a one-line message on bad input."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    try:
+        report = write_report(args.dir, args.out, args.level)
+    except (ReportError, OSError) as error:
+        # Bad input (or an unwritable --out) is the user's to fix: a message, not a traceback.
+        parser.exit(2, f"{parser.prog}: error: {error}\n")
+    print(report.summary_path)
+    groups = report.summary["groups"]
+    width = max(len(f"{g['robot']} / {g['label']}") for g in groups)
+    print(f"{'robot / label':<{width}}  seeds  final task loss (mean ± {args.level:.0%} CI)")
+    for g in groups:
+        final = g["final_task_loss"]
+        half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else ""
+        print(f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  "
+              f"{format_number(final['mean'])}{half}")
+    for robot, best in report.summary["best"].items():
+        if best["compared"] > 1:
+            print(f"best for {robot}: {best['label']}")
+    sys.stdout.flush()
+    return 0

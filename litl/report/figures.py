@@ -1,0 +1,104 @@
+"""The report's PNG plots, in the style of the paper's Fig. 4 (task loss) and Fig. 5 (recon loss).
+
+Figures are built with `matplotlib.figure.Figure` rather than pyplot, so writing a report leaves
+no open figures and needs no backend choice (PNG is rendered with Agg).
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from litl.report.stats import Curve
+
+XLABEL = "optimization iteration"
+# tab10: one colour per label, the same in every figure of a report.
+PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+           "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def label_colors(labels: list[str]) -> dict[str, str]:
+    """A colour per distinct label, in order of first appearance."""
+    distinct = list(dict.fromkeys(labels))
+    return {label: PALETTE[i % len(PALETTE)] for i, label in enumerate(distinct)}
+
+
+def plot_panels(panels, path, ylabel: str, colors: dict[str, str], level: float,
+                log: bool = False, steps: bool = False) -> pathlib.Path:
+    """Write one PNG with a panel per entry: lines for the means, shaded confidence bands.
+
+    Args:
+      panels: list of (title, lines); lines: list of (curve, linestyle, legend text). The colour
+        comes from the curve's label, so a label's train and validation lines match.
+      path: the PNG file to write.
+      ylabel: the y-axis label.
+      colors: {label: colour}, see `label_colors`.
+      level: the confidence level of the bands, for the legend title.
+      log: use a log y axis where every plotted value is positive.
+      steps: draw each value as holding until the next iteration (for quantities that change
+        only between episodes, such as the observer's reconstruction loss).
+    """
+    cols = min(len(panels), 3)
+    rows = math.ceil(len(panels) / cols)
+    figure = Figure(figsize=(5.2 * cols, 3.8 * rows), layout="constrained")
+    axes = figure.subplots(rows, cols, squeeze=False).ravel()
+    for ax, (title, lines) in zip(axes, panels):
+        for curve, style, text in lines:
+            color = colors.get(curve.label, PALETTE[0])
+            # A single iteration would draw no line; a marker keeps it visible.
+            marker = "o" if len(curve.steps) == 1 else None
+            ax.plot(curve.steps, curve.mean, linestyle=style, color=color, marker=marker,
+                    label=text, drawstyle="steps-post" if steps else "default")
+            if np.any(curve.high > curve.low):
+                ax.fill_between(curve.steps, curve.low, curve.high, color=color, alpha=0.2,
+                                linewidth=0, step="post" if steps else None)
+        values = np.concatenate([np.concatenate([c.low, c.high]) for c, _, _ in lines])
+        values = values[np.isfinite(values)]
+        if log and values.size and np.all(values > 0):
+            ax.set_yscale("log")
+        ax.set_title(title)
+        ax.set_xlabel(XLABEL)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small", title=f"mean, {level:.0%} CI", title_fontsize="small")
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    path = pathlib.Path(path)
+    figure.savefig(path, dpi=120)
+    return path
+
+
+def plot_task_loss(task_curves: list[Curve], path, colors, level) -> pathlib.Path:
+    """Task loss vs optimization iteration, a panel per robot, a curve per label (Fig. 4)."""
+    robots = list(dict.fromkeys(c.robot for c in task_curves))
+    panels = [(robot, [(c, "-", c.label) for c in task_curves if c.robot == robot])
+              for robot in robots]
+    return plot_panels(panels, path, "task loss", colors, level)
+
+
+def plot_components(component_curves: list[Curve], path, colors, level) -> pathlib.Path:
+    """Each task term vs optimization iteration, a panel per robot and term."""
+    keys = list(dict.fromkeys((c.robot, c.key) for c in component_curves))
+    panels = [(f"{robot}: {key.removeprefix('task/')}",
+               [(c, "-", c.label) for c in component_curves if (c.robot, c.key) == (robot, key)])
+              for robot, key in keys]
+    return plot_panels(panels, path, "task term", colors, level)
+
+
+def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, colors,
+                    level) -> pathlib.Path:
+    """Reconstruction loss of the observer in use vs optimization iteration (Fig. 5).
+
+    Solid lines are the validation loss, dashed ones the training loss, both as recorded by the
+    learning phase that produced the observer in use (so they change only between episodes).
+    """
+    robots = list(dict.fromkeys(c.robot for c in val_curves + train_curves))
+    panels = []
+    for robot in robots:
+        lines = [(c, "-", f"{c.label} (validation)") for c in val_curves if c.robot == robot]
+        lines += [(c, "--", f"{c.label} (training)") for c in train_curves if c.robot == robot]
+        panels.append((robot, lines))
+    return plot_panels(panels, path, "reconstruction loss", colors, level, log=True, steps=True)

@@ -1,0 +1,237 @@
+"""Writing a whole report: plots, Table 1 (markdown and CSV), summary.md and summary.json."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import pathlib
+
+import numpy as np
+
+from litl.report import figures
+from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
+from litl.report.stats import components, confidence_band, curves, final_values, series, table1
+
+
+@dataclasses.dataclass(frozen=True)
+class Report:
+    """What `write_report` wrote.
+
+    Attributes:
+      summary: the numbers of `summary.json` (NaN as None).
+      files: every file written, summary.md first.
+    """
+
+    summary: dict
+    files: tuple[pathlib.Path, ...]
+
+    @property
+    def summary_path(self) -> pathlib.Path:
+        return self.files[0]
+
+
+def _number(value):
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def format_number(value, spec: str = ".4g") -> str:
+    return "—" if value is None or not math.isfinite(value) else format(value, spec)
+
+
+def _relative(path: pathlib.Path, source: pathlib.Path) -> str:
+    try:
+        return str(path.relative_to(source)) or "."
+    except ValueError:
+        return str(path)
+
+
+def _health_notes(group: Group, source: pathlib.Path) -> list[str]:
+    notes = []
+    for run in group.runs:
+        for seed in run.seeds:
+            records = [r for r in run.records if int(r["seed"]) == seed]
+            for key, what in (("first_nonfinite_step", "blew up (non-finite values)"),
+                              ("first_escape_step", "lost particles off the grid")):
+                bad = [r for r in records
+                       if isinstance(r.get(key), (int, float)) and r[key] >= 0]
+                if bad:
+                    notes.append(
+                        f"{group.robot} / {group.label}: {_relative(run.path, source)} seed "
+                        f"{seed} {what} in {len(bad)} of {len(records)} iterations, first at "
+                        f"iteration {min(int(r['step']) for r in bad)}")
+    return notes
+
+
+def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[str]:
+    notes = []
+    missing = int(np.isnan(values).sum())
+    if missing:
+        notes.append(f"{group.robot} / {group.label}: {missing} of {values.size} task-loss values "
+                     f"are missing (null: non-finite, or a seed without that iteration); means "
+                     f"and bands use the seeds that have them")
+    return notes
+
+
+def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
+              level: float) -> dict:
+    """The numbers of a report, as stored in `summary.json` (figures are added by the caller)."""
+    notes = []
+    entries = []
+    for group in groups:
+        final = final_values(group, "task_loss")
+        mean, low, high = confidence_band(final, level)
+        n = int(np.isfinite(final).sum())
+        steps, values = series(group, "task_loss")
+        entries.append({
+            "robot": group.robot, "label": group.label,
+            "observer": group.runs[0].observer, "seeds": group.n_seeds,
+            "runs": [_relative(run.path, source) for run in group.runs],
+            "iterations": int(steps[-1]) + 1 if len(steps) else 0,
+            "final_task_loss": {"mean": _number(mean), "low": _number(low),
+                                "high": _number(high), "half_width": _number(high - mean),
+                                "n": n}})
+        if group.n_seeds < 2:
+            notes.append(f"{group.robot} / {group.label}: one seed only, so its curves have no "
+                         f"confidence band (the band needs at least 2 seeds)")
+        notes += _health_notes(group, source) + _missing_notes(group, steps, values)
+    best = {}
+    for robot in dict.fromkeys(e["robot"] for e in entries):
+        ranked = sorted((e for e in entries
+                         if e["robot"] == robot and e["final_task_loss"]["mean"] is not None),
+                        key=lambda e: e["final_task_loss"]["mean"])
+        if not ranked:
+            continue
+        first = ranked[0]["final_task_loss"]
+        overlaps = len(ranked) > 1 and ranked[1]["final_task_loss"]["low"] <= first["high"]
+        best[robot] = {"label": ranked[0]["label"], "compared": len(ranked),
+                       "overlaps_runner_up": bool(overlaps)}
+    return {
+        "source": str(source), "level": level,
+        "runs": [{"path": _relative(run.path, source), "robot": run.robot, "label": label,
+                  "observer": run.observer, "seeds": run.seeds, "records": len(run.records)}
+                 for run, label in _run_labels(runs, groups)],
+        "groups": entries, "best": best, "notes": notes}
+
+
+def _run_labels(runs, groups):
+    label_of = {id(run): group.label for group in groups for run in group.runs}
+    return [(run, label_of[id(run)]) for run in runs if id(run) in label_of]
+
+
+def _table1_markdown(rows: list[dict]) -> str:
+    lines = ["# Table 1: change of the task objective after retraining plus one optimization "
+             "step", "",
+             "retrain_change = task loss before the retraining − task loss after it and one "
+             "optimization step; negative: retraining cost progress (as in the paper). Mean and "
+             "sample standard deviation over seeds.", ""]
+    if not rows:
+        lines.append("No retraining measurements: they need a learned observer (vae, ae) with "
+                     "learning phases (not one-shot or simultaneous), at least two episodes and "
+                     "two iterations per episode.")
+    for robot, label in dict.fromkeys((r["robot"], r["label"]) for r in rows):
+        lines += [f"## {robot} — {label}", "", "| retrain | mean | std | n |",
+                  "|---:|---:|---:|---:|"]
+        lines += [f"| {r['retrain']} | {format_number(r['mean'], '.3e')} | {format_number(r['std'], '.3e')} | "
+                  f"{r['n']} |" for r in rows if (r["robot"], r["label"]) == (robot, label)]
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _write_table1(rows: list[dict], out: pathlib.Path) -> list[pathlib.Path]:
+    (out / "table1.md").write_text(_table1_markdown(rows))
+    with open(out / "table1.csv", "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=["robot", "label", "retrain", "mean", "std", "n"])
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: ("" if isinstance(v, float) and not math.isfinite(v) else v)
+                             for k, v in row.items()})
+    return [out / "table1.md", out / "table1.csv"]
+
+
+def summary_markdown(summary: dict) -> str:
+    """The human-readable summary of a report."""
+    level = f"{summary['level']:.0%}"
+    lines = ["# litl report", "", f"Source: `{summary['source']}`", "",
+             f"{len(summary['runs'])} run(s), {len(summary['groups'])} label(s). Curves and "
+             f"intervals: mean over seeds with a {level} Student-t confidence interval.", "",
+             "## Runs", "", "| run | robot | label | seeds | records |", "|---|---|---|---|---:|"]
+    lines += [f"| `{r['path']}` | {r['robot']} | {r['label']} | "
+              f"{', '.join(map(str, r['seeds']))} | {r['records']} |" for r in summary["runs"]]
+    lines += ["", f"## Final task loss (lower is better; mean ± {level} CI half-width)", "",
+              "| robot | label | seeds | iterations | final task loss |",
+              "|---|---|---:|---:|---|"]
+    for e in summary["groups"]:
+        final = e["final_task_loss"]
+        half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else " (one seed, no CI)"
+        lines.append(f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | "
+                     f"{format_number(final['mean'])}{half} |")
+    lines += ["", "## Best label", ""]
+    for robot, best in summary["best"].items():
+        if best["compared"] < 2:
+            lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
+        else:
+            caveat = (" — but its confidence interval overlaps the runner-up's, so the "
+                      "difference is not clear at this level" if best["overlaps_runner_up"]
+                      else "; its confidence interval does not overlap the runner-up's")
+            lines.append(f"- {robot}: **{best['label']}** has the lowest final task loss of "
+                         f"{best['compared']} labels{caveat}.")
+    lines += ["", "## Files", ""] + [f"- `{name}`" for name in summary["files"]]
+    lines += ["", "## Notes", ""] + ([f"- {note}" for note in summary["notes"]] or ["- none"])
+    return "\n".join(lines) + "\n"
+
+
+def write_report(source, out=None, level: float = 0.9) -> Report:
+    """Read every run under `source` and write the report into `out` (default: `source`).
+
+    Writes `task_loss.png`, `components.png` (if a task has several terms), `recon_loss.png` (if
+    a learned observer recorded a reconstruction loss), `table1.md`, `table1.csv`, `summary.md`
+    and `summary.json`.
+
+    Raises:
+      ReportError: no runs, no metrics, or a malformed file (the message names it).
+    """
+    source = pathlib.Path(source)
+    if not (isinstance(level, (int, float)) and 0 < level < 1):
+        raise ReportError(f"--level must lie in (0, 1), e.g. 0.9; got {level!r}")
+    loaded = load_runs(source)
+    runs = [run for run in loaded if run.records]
+    if not runs:
+        raise ReportError(f"the {len(loaded)} run(s) in {source} have no metrics yet (empty "
+                          f"metrics.jsonl); wait for the first optimization iteration")
+    out = pathlib.Path(out) if out is not None else source
+    out.mkdir(parents=True, exist_ok=True)
+    groups = group_runs(runs)
+    summary = summarize(runs, groups, source, level)
+    summary["notes"] = [f"{_relative(run.path, source)} has no metrics yet; left out"
+                        for run in loaded if not run.records] + summary["notes"]
+    colors = figures.label_colors([g.label for g in groups])
+    written = [figures.plot_task_loss(curves(groups, "task_loss", level), out / "task_loss.png",
+                                      colors, level)]
+    several = [g for g in groups if len(components(g)) > 1]
+    if several:
+        component_curves = [c for g in several for key in components(g)
+                            for c in curves([g], key, level)]
+        written.append(figures.plot_components(component_curves, out / "components.png",
+                                               colors, level))
+    learned = [g for g in groups if g.learned]
+    val = curves(learned, "recon_loss_val", level)
+    train = curves(learned, "recon_loss_train", level)
+    if val or train:
+        written.append(figures.plot_recon_loss(val, train, out / "recon_loss.png", colors,
+                                               level))
+    else:
+        summary["notes"].append("no learned observer (vae, ae) recorded a reconstruction loss: "
+                                "recon_loss.png was not written")
+    rows = table1(groups)
+    written += _write_table1(rows, out)
+    if not rows:
+        summary["notes"].append("no retraining measurements (retrain_change): Table 1 is empty")
+    summary["table1"] = [{k: (_number(v) if isinstance(v, float) else v) for k, v in r.items()}
+                         for r in rows]
+    summary["files"] = [p.name for p in written] + ["summary.md", "summary.json"]
+    (out / "summary.md").write_text(summary_markdown(summary))
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
+    return Report(summary=summary, files=(out / "summary.md", out / "summary.json", *written))

@@ -1,0 +1,244 @@
+"""Reports over synthetic run directories: bands, labels, files, Table 1 and clear CLI errors."""
+
+import csv
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from litl.loop.config import LoopConfig
+from litl.report import (
+    confidence_band, curves, group_runs, labels, load_runs, main, t_quantile, write_report,
+)
+from litl.report.runs import ABLATIONS, Run
+
+# A loop config as `run.json` stores it; tests override fields per run.
+LOOP = {"episodes": 3, "iterations": 4, "seeds": 3, "seed": 0, "steps": None, "observer": "vae",
+        "latent_dim": 8, "channels": [8, 16, 32, 32, 64], "clusters": 6,
+        "controller_widths": [64, 64], "controller_period": None, "learning_rate": 0.01,
+        "design_learning_rate": 0.5, "snapshot_stride": 10, "replay_capacity": 1000,
+        "learning": {"max_epochs": 100, "batch_size": 32, "patience": 5}, "alpha": 0.5,
+        "replay": True, "one_shot": False, "simultaneous": False, "codesign": True,
+        "dtype": "float32"}
+
+
+def write_run(path, robot="biped", seeds=(0, 1, 2), episodes=3, iterations=4, final=1.0,
+              unhealthy=None, **loop):
+    """A run directory with made-up metrics: the loss falls from 2 + final to about `final`.
+
+    `unhealthy` = (seed, step) from which that seed's simulation reports non-finite values.
+    """
+    loop = {**LOOP, "episodes": episodes, "iterations": iterations, "seeds": len(seeds),
+            "seed": seeds[0], **loop}
+    learned = loop["observer"] != "kmeans"
+    path.mkdir(parents=True)
+    (path / "run.json").write_text(json.dumps({
+        "robot": robot, "particles": 100, "grid_shape": [32, 32], "dx": 1 / 32, "dt": 1e-3,
+        "steps": 40, "loop": loop}))
+    rng = np.random.default_rng(seeds[0])
+    lines = []
+    for episode in range(episodes):
+        for iteration in range(iterations):
+            step = episode * iterations + iteration
+            for seed in seeds:
+                loss = final + 2 * math.exp(-step / 3) + 0.05 * rng.standard_normal()
+                bad = unhealthy is not None and seed == unhealthy[0] and step >= unhealthy[1]
+                lines.append(json.dumps({
+                    "seed": seed, "episode": episode, "iteration": iteration, "step": step,
+                    "task_loss": None if bad else loss, "task/distance": -loss,
+                    "task/reach_tip": loss / 2, "design": [1.0, 2.0], "design_mean": 1.5,
+                    "recon_loss_train": 0.1 / (episode + 1) if learned else None,
+                    "recon_loss_val": 0.12 / (episode + 1) if learned else None,
+                    "kl": 0.01 if learned else None, "learning_epochs": 5,
+                    "retrain_change": (-0.01 * episode + 0.001 * seed
+                                       if learned and episode and iteration == 1 else None),
+                    "controller_grad_norm": 1.0, "design_grad_norm": 1.0,
+                    "first_nonfinite_step": 7 if bad else -1, "first_escape_step": -1,
+                    "wall_s": 0.1 * step}))
+    (path / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+    return path
+
+
+def fake_run(robot="biped", **loop) -> Run:
+    return Run(path=None, settings={"robot": robot, "dx": 1 / 32, "steps": 40,
+                                    "loop": {**LOOP, **loop}}, records=())
+
+
+def test_t_quantiles_match_tables():
+    np.testing.assert_allclose(t_quantile(0.95, [1, 9, 29]), [6.3138, 1.8331, 1.6991], atol=1e-4)
+
+
+def test_band_matches_hand_computation_for_ten_seeds():
+    values = np.stack([np.arange(10.0), np.arange(10.0) ** 2], axis=1)  # (seeds, iterations)
+    mean, low, high = confidence_band(values, level=0.9)
+    for column in range(2):
+        x = values[:, column]
+        half = 1.8331 * x.std(ddof=1) / math.sqrt(10)
+        assert mean[column] == pytest.approx(x.mean())
+        assert high[column] - mean[column] == pytest.approx(half, rel=1e-4)
+        assert mean[column] - low[column] == pytest.approx(half, rel=1e-4)
+
+
+def test_band_skips_missing_values_and_collapses_with_one_seed():
+    values = np.array([[1.0, 2.0, np.nan], [3.0, np.nan, np.nan]])
+    mean, low, high = confidence_band(values)
+    assert mean[0] == 2.0 and low[0] < 2.0 < high[0]
+    assert mean[1] == low[1] == high[1] == 2.0  # one seed: no band
+    assert np.isnan(mean[2])
+    with pytest.raises(ValueError, match="level"):
+        confidence_band(values, level=90)
+
+
+def test_report_defaults_mirror_loop_config():
+    defaults = {f.name: f.default for f in dataclasses.fields(LoopConfig)}
+    assert {field: default for field, default, _ in ABLATIONS} == {
+        field: defaults[field] for field, _, _ in ABLATIONS}
+
+
+def test_labels_name_observer_and_ablations():
+    runs = [fake_run(), fake_run(observer="kmeans"), fake_run(replay=False),
+            fake_run(one_shot=True), fake_run(simultaneous=True), fake_run(alpha=1.0),
+            fake_run(codesign=False), fake_run(replay=False, alpha=1, codesign=False),
+            fake_run(observer="kmeans", codesign=False, alpha=1.0), fake_run(seed=5, seeds=2)]
+    assert labels(runs) == [
+        "vae", "kmeans", "vae, no replay", "vae, one-shot", "vae, simultaneous", "vae, α=1",
+        "vae, control only", "vae, no replay, α=1, control only", "kmeans, control only", "vae"]
+
+
+def test_labels_name_sizes_only_where_runs_differ_and_per_robot():
+    runs = [fake_run(latent_dim=4), fake_run(latent_dim=8), fake_run(observer="kmeans"),
+            fake_run(observer="kmeans", clusters=12, latent_dim=4), fake_run("arm", latent_dim=4),
+            fake_run("arm", observer="kmeans")]
+    assert labels(runs) == ["vae r=4", "vae r=8", "kmeans k=6", "kmeans k=12", "vae", "kmeans"]
+    sweep = [fake_run(learning_rate=0.01), fake_run(learning_rate=0.02, replay=False),
+             dataclasses.replace(fake_run(), settings={**fake_run().settings, "dx": 1 / 64})]
+    assert labels(sweep) == ["vae dx=1/32 lr=0.01", "vae dx=1/32 lr=0.02, no replay",
+                             "vae dx=1/64 lr=0.01"]
+
+
+def test_multirun_with_two_observers_writes_every_file(tmp_path):
+    sweep = tmp_path / "multirun" / "2024-05-01"
+    write_run(sweep / "0", observer="vae", final=0.5)
+    write_run(sweep / "1", observer="kmeans", final=1.5)
+    (tmp_path / "multirun" / "multirun.yaml").write_text("hydra: {}\n")
+    out = tmp_path / "report"
+    assert main([str(tmp_path / "multirun"), "--out", str(out)]) == 0
+    for name in ("task_loss.png", "components.png", "recon_loss.png", "table1.md", "table1.csv",
+                 "summary.md", "summary.json"):
+        assert (out / name).stat().st_size > 0, name
+    assert Image.open(out / "task_loss.png").size[0] > 100
+
+    with open(out / "table1.csv") as file:
+        rows = list(csv.DictReader(file))
+    # Learning phases after episodes 0 and 1 of the vae run only (k-means never retrains).
+    assert [(r["label"], r["retrain"], r["n"]) for r in rows] == [("vae", "1", "3"),
+                                                                 ("vae", "2", "3")]
+    assert float(rows[1]["mean"]) == pytest.approx(-0.02 + 0.001)
+    assert float(rows[0]["std"]) == pytest.approx(0.001)
+
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["best"]["biped"]["label"] == "vae"
+    assert [(g["label"], g["seeds"]) for g in summary["groups"]] == [("vae", 3), ("kmeans", 3)]
+    vae_final = summary["groups"][0]["final_task_loss"]
+    assert vae_final["n"] == 3 and vae_final["half_width"] > 0
+    text = (out / "summary.md").read_text()
+    assert "**vae**" in text and "task_loss.png" in text and "90%" in text
+
+
+def test_seeds_in_separate_run_dirs_are_pooled(tmp_path):
+    for job, seed in enumerate((0, 1, 2, 3)):
+        write_run(tmp_path / str(job), seeds=(seed,), observer="kmeans" if job % 2 else "vae")
+    groups = group_runs(load_runs(tmp_path))
+    assert [(g.label, g.n_seeds) for g in groups] == [("vae", 2), ("kmeans", 2)]
+    (vae, _) = curves(groups)
+    assert vae.n.tolist() == [2] * 12 and np.all(vae.high >= vae.low)
+
+
+def test_single_run_single_seed(tmp_path, capsys):
+    run_dir = write_run(tmp_path / "run", seeds=(4,))
+    assert main([str(run_dir)]) == 0
+    out = capsys.readouterr().out
+    assert str(run_dir / "summary.md") in out and "biped / vae" in out
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["best"]["biped"] == {"label": "vae", "compared": 1,
+                                        "overlaps_runner_up": False}
+    final = summary["groups"][0]["final_task_loss"]
+    assert final["n"] == 1 and final["half_width"] == 0 and final["low"] == final["mean"]
+    notes = "\n".join(summary["notes"])
+    assert "one seed only" in notes and "no confidence band" in notes
+    assert "one seed, no CI" in (run_dir / "summary.md").read_text()
+
+
+def test_unhealthy_seed_is_reported_and_left_out_of_the_mean(tmp_path):
+    run_dir = write_run(tmp_path / "run", seeds=(0, 1), unhealthy=(1, 10))
+    summary = write_report(run_dir).summary
+    notes = "\n".join(summary["notes"])
+    assert "seed 1 blew up" in notes and "in 2 of 12 iterations, first at iteration 10" in notes
+    assert "2 of 24 task-loss values are missing" in notes
+    assert summary["groups"][0]["final_task_loss"]["n"] == 1
+
+
+def test_kmeans_only_writes_no_recon_plot_and_empty_table(tmp_path):
+    write_run(tmp_path / "run", observer="kmeans")
+    report = write_report(tmp_path)
+    names = {p.name for p in report.files}
+    assert "recon_loss.png" not in names and "task_loss.png" in names
+    assert (tmp_path / "table1.csv").read_text().strip() == "robot,label,retrain,mean,std,n"
+    assert "No retraining measurements" in (tmp_path / "table1.md").read_text()
+
+
+def run_cli_error(args, capsys) -> str:
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    return capsys.readouterr().err
+
+
+def test_missing_path_is_a_clear_error(tmp_path, capsys):
+    err = run_cli_error([str(tmp_path / "nowhere")], capsys)
+    assert "does not exist" in err and "Traceback" not in err
+
+
+def test_directory_without_runs_is_a_clear_error(tmp_path, capsys):
+    (tmp_path / "0").mkdir()
+    (tmp_path / "0" / "run.json").write_text("{}")  # no metrics.jsonl: not a run
+    assert "no runs found" in run_cli_error([str(tmp_path)], capsys)
+
+
+def test_malformed_metrics_line_names_file_and_line(tmp_path, capsys):
+    run_dir = write_run(tmp_path / "run")
+    lines = (run_dir / "metrics.jsonl").read_text().splitlines()
+    lines[4] = lines[4][:20]  # cut off, as by a crash mid-write
+    (run_dir / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+    err = run_cli_error([str(tmp_path)], capsys)
+    assert f"{run_dir / 'metrics.jsonl'}, line 5: not valid JSON" in err
+
+
+def test_bad_level_is_a_clear_error(tmp_path, capsys):
+    write_run(tmp_path / "run")
+    assert "--level" in run_cli_error([str(tmp_path), "--level", "90"], capsys)
+
+
+@pytest.mark.parametrize("line, message", [
+    ('{"seed": 0, "task_loss": 1.0}', "line 2: missing step"),
+    ('{"seed": null, "step": 0, "task_loss": 1.0}', "line 2: seed and step must be integers"),
+    ("[1, 2]", "line 2: expected a JSON object"),
+])
+def test_bad_metrics_records_name_the_line(tmp_path, capsys, line, message):
+    run_dir = write_run(tmp_path / "run", episodes=1, iterations=1, seeds=(0,))
+    with open(run_dir / "metrics.jsonl", "a") as file:
+        file.write(line + "\n")
+    assert message in run_cli_error([str(tmp_path)], capsys)
+
+
+def test_unreadable_settings_and_runs_without_metrics(tmp_path, capsys):
+    empty = write_run(tmp_path / "0")
+    (empty / "metrics.jsonl").write_text("")
+    assert "have no metrics yet" in run_cli_error([str(tmp_path)], capsys)
+    write_run(tmp_path / "1")
+    assert "0 has no metrics yet; left out" in "\n".join(write_report(tmp_path).summary["notes"])
+    (empty / "run.json").write_text("{not json")
+    assert f"{empty / 'run.json'}: cannot be read" in run_cli_error([str(tmp_path)], capsys)
