@@ -74,6 +74,11 @@ class Algorithm:
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     n_features: int
+    # For pictures and replays of one seed: policy((controller, observer), state, grid_velocity),
+    # the observer network (None for k-means) and the controller module.
+    policy: Callable
+    model: Any
+    controller: MLPController
 
 
 def empty_stats(dtype) -> LearningStats:
@@ -105,6 +110,7 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         observer_step = vae.make_train_step(model, optax.adam(config.learning.learning_rate),
                                             config.learning.beta)
     else:
+        model = None
         if config.clusters > robot.layout.n_particles:
             raise ValueError(f"clusters={config.clusters} exceeds the robot's "
                              f"{robot.layout.n_particles} particles")
@@ -217,7 +223,8 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         return total
 
     return Algorithm(init=init, bootstrap=bootstrap, optimize=optimize, learn=learn,
-                     evaluate=evaluate, steps=steps, n_features=n_features)
+                     evaluate=evaluate, steps=steps, n_features=n_features, policy=policy,
+                     model=model, controller=controller)
 
 
 def stack_seeds(states: list[LoopState]) -> LoopState:

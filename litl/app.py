@@ -1,0 +1,123 @@
+"""What `python -m litl` does with a composed config: build, run Algorithm 1, draw the results.
+
+`run_experiment(settings, run_dir)` is the whole job, callable from notebooks too:
+
+    from litl.app import compose, run_experiment
+    result = run_experiment(compose(["robot=arm", "+scale=smoke"]), "outputs/try")
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import sys
+
+import numpy as np
+
+import litl.robots
+from litl.conf.schema import Settings, register, to_settings
+from litl.loop import LearningConfig, LoopConfig, make_algorithm, run, seed_slice
+from litl.robots.robot import Robot
+from litl.robots.tasks import Locomotion, Task
+
+TASKS = ("default", "locomotion", "velocity")
+RESOLUTIONS = {"paper": {2: None, 3: None}, "demo": {2: 1 / 64, 3: 1 / 32},
+               "smoke": {2: 1 / 32, 3: 1 / 16}}
+
+
+class SettingsError(ValueError):
+    """A config value that the schema's types allow but litl cannot use."""
+
+
+def normalize_overrides(overrides: list[str]) -> list[str]:
+    """Accept `+scale=...`, `+experiment=...` and `+variant=...` as well as the plain form.
+
+    These groups sit in the defaults list as optional entries, so Hydra wants the plain form; the
+    `+` form is what users of other Hydra apps type for optional groups.
+    """
+    optional = ("scale", "experiment", "variant")
+    return [o[1:] if o.startswith("+") and o[1:].split("=")[0] in optional else o for o in overrides]
+
+
+def compose(overrides: list[str] = ()) -> Settings:
+    """Compose the config like the CLI does (for notebooks and tests) and convert it."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_module
+
+    register()
+    with initialize_config_module("litl.conf", version_base="1.3"):
+        cfg = hydra_compose("config", overrides=normalize_overrides(list(overrides)))
+    return to_settings(cfg)
+
+
+def build_robot(settings: Settings) -> Robot:
+    """The configured robot at the configured resolution, with the configured task."""
+    name = settings.robot.name
+    if name not in litl.robots.names():
+        raise SettingsError(f"unknown robot {name!r}; choose one of {litl.robots.names()} "
+                            f"(robot=<name>)")
+    resolution = settings.robot.resolution
+    if resolution not in RESOLUTIONS:
+        raise SettingsError(f"unknown robot.resolution {resolution!r}; choose one of "
+                            f"{sorted(RESOLUTIONS)} or set robot.dx")
+    dx = settings.robot.dx
+    if dx is None:
+        dx = RESOLUTIONS[resolution][litl.robots.catalog.ROBOTS[name].dim]
+    robot = litl.robots.get(name, dx=dx)
+    kind = settings.task.kind
+    if kind not in TASKS:
+        raise SettingsError(f"unknown task {kind!r}; choose one of {TASKS} (task=<kind>)")
+    if kind != "default":
+        measure = "distance" if kind == "locomotion" else "velocity"
+        robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
+    return robot
+
+
+def loop_config(settings: Settings) -> LoopConfig:
+    """The `LoopConfig` of a composed config (validated there)."""
+    loop, observer, controller = settings.loop, settings.observer, settings.controller
+    return LoopConfig(
+        episodes=loop.episodes, iterations=loop.iterations, seeds=settings.seeds,
+        seed=settings.seed, steps=settings.sim.steps, observer=observer.kind,
+        latent_dim=observer.latent_dim, channels=tuple(observer.channels),
+        clusters=observer.clusters, controller_widths=tuple(controller.widths),
+        controller_period=controller.period, learning_rate=controller.learning_rate,
+        design_learning_rate=loop.design_learning_rate, snapshot_stride=loop.snapshot_stride,
+        replay_capacity=loop.replay_capacity,
+        learning=LearningConfig(**dataclasses.asdict(loop.learning)),
+        alpha=loop.alpha, replay=loop.replay, one_shot=loop.one_shot,
+        simultaneous=loop.simultaneous, codesign=loop.codesign, dtype=settings.sim.dtype)
+
+
+def run_experiment(settings: Settings, run_dir):
+    """Run Algorithm 1 for the settings in `run_dir` (resuming it if it holds a run), then draw.
+
+    Returns the `litl.loop.RunResult`.
+    """
+    robot = build_robot(settings)
+    config = loop_config(settings)
+    run_dir = pathlib.Path(run_dir)
+    print(f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
+          f"{robot.config.grid_shape}), observer {config.observer}, {config.seeds} seed(s), "
+          f"{config.episodes} x {config.iterations} iterations -> {run_dir}", file=sys.stderr)
+    result = run(robot, config, run_dir, progress=settings.output.progress)
+    if settings.output.pictures or settings.output.animation:
+        from litl.pictures import draw_run
+
+        draw_run(robot, config, result, run_dir, animation=settings.output.animation,
+                 pictures=settings.output.pictures, stride=settings.output.animation_stride)
+    final = [r["task_loss"] for r in result.metrics[-config.seeds:]]
+    print(f"litl: final task loss per seed {np.round(final, 6).tolist()}; results in {run_dir}",
+          file=sys.stderr)
+    return result
+
+
+def replay_seed(robot: Robot, config: LoopConfig, state, seed_index: int = 0, stride: int = 10):
+    """Positions and actuation of one seed's final controller and design (for animations)."""
+    from litl.viz import record_rollout
+
+    algorithm = make_algorithm(robot, config)
+    one = seed_slice(state, seed_index)
+    steps = algorithm.steps
+    return record_rollout(robot, algorithm.policy, (one.controller, one.observer), steps,
+                          design=robot.design(one.design), stride=min(stride, steps), check=False)
