@@ -2,6 +2,8 @@
 
 `draw_robot` / `draw_robot_3d` draw a robot in the style of the paper's Fig. 4 insets;
 `record_rollout` simulates a robot and `animate_rollout` writes the result as a GIF or MP4.
+The learned representation: `draw_snapshots` (Fig. 1), `draw_latent_sweeps` (Fig. 8),
+`draw_clusters` (Fig. 7), and `saliency` / `animate_saliency` (saliency maps).
 """
 
 from litl.viz.animation import animate_rollout, record_rollout
@@ -12,4 +14,12 @@ from litl.viz.robots import (
 __all__ = [
     "VizError", "add_actuation_colorbar", "animate_rollout", "draw", "draw_robot",
     "draw_robot_3d", "particle_colors", "record_rollout",
+]
+
+from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
+from litl.viz.saliency import animate_saliency, make_saliency, saliency  # noqa: E402
+
+__all__ += [
+    "animate_saliency", "draw_clusters", "draw_latent_sweeps", "draw_snapshots", "make_saliency",
+    "saliency",
 ]
