@@ -60,8 +60,8 @@ class LearningConf:
 
 @dataclass
 class LoopConf:
-    episodes: int = 10             # K
-    iterations: int = 10           # M
+    episodes: int = 4              # K
+    iterations: int = 5            # M
     design_learning_rate: float = 0.5
     snapshot_stride: int = 20
     replay_capacity: int = 500     # B

@@ -43,7 +43,11 @@ def _grid_update(config: SimConfig, grid, particle_mass):
     """Momentum -> velocity, gravity, boundaries."""
     velocity, mass = _grid_velocity(config, grid, particle_mass)
     dtype = mass.dtype
-    velocity = [v + jnp.asarray(config.dt * g, dtype) for v, g in zip(velocity, config.gravity)]
+    # Gravity only where there is material: particles never read empty nodes, but the observer
+    # does, and an empty grid must read as zero velocity (not g * dt everywhere).
+    occupied = mass > 0
+    velocity = [v + jnp.where(occupied, jnp.asarray(config.dt * g, dtype), 0) if g else v
+                for v, g in zip(velocity, config.gravity)]
     return apply_boundary(config, velocity), mass
 
 

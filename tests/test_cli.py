@@ -1,0 +1,109 @@
+"""`python -m litl` end to end in fresh processes: the default job (smoke-sized), config errors,
+and sweeps with the basic, joblib and submitit_local launchers.
+
+The processes run from a temporary directory, so they import the installed package when litl is
+installed (the README's commands install it non-editable) and the source tree otherwise.
+"""
+
+import importlib.metadata
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+QUIET = ["output.pictures=false", "output.animation=false", "output.progress=false"]
+
+
+def litl_command(args, cwd, timeout=600):
+    env = dict(os.environ)
+    try:
+        importlib.metadata.distribution("litl")
+    except importlib.metadata.PackageNotFoundError:
+        env["PYTHONPATH"] = str(ROOT)
+    return subprocess.run([sys.executable, "-m", "litl", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def run_dirs(root):
+    return sorted(p.parent for p in pathlib.Path(root).rglob("metrics.jsonl"))
+
+
+def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoint(tmp_path):
+    done = litl_command(["+scale=smoke", "seeds=2"], tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    (run_dir,) = run_dirs(tmp_path / "outputs")
+    assert run_dir.relative_to(tmp_path).parts[:3] == ("outputs", "demo", "biped")
+    records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    assert len(records) == 2 * 2 * 2 and {r["seed"] for r in records} == {0, 1}
+    for name in ("task_loss.png", "recon_loss.png", "robot.png", "robot.gif", "snapshots.png",
+                 "latent_sweeps.png", "saliency.gif", "summary.md", "table1.csv"):
+        assert (run_dir / name).stat().st_size > 0, name
+    assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()
+    assert "final task loss per seed" in done.stderr
+
+
+@pytest.mark.parametrize("override, message", [
+    ("loop.episods=3", "Key 'episods' not in 'LoopConf'"),
+    ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
+    ("robot=bipd", "Could not find 'robot/bipd'"),
+    ("observer=vea", "Could not find 'observer/vea'"),
+    ("observer.kind=vea", "unknown observer 'vea'"),
+    ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
+    ("robot.dx=0.3", "must divide the domain"),
+    ("loop.alpha=1.5", "alpha must lie in \\(0, 1\\]"),
+    ("experiment=fig9", "Could not find 'experiment/fig9'"),
+])
+def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, message):
+    done = litl_command([override, "+scale=smoke"], tmp_path, timeout=300)
+    assert done.returncode != 0
+    import re
+    assert re.search(message, done.stderr), done.stderr[-2000:]
+    assert not list(tmp_path.rglob("metrics.jsonl"))
+
+
+def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():
+    from litl.app import build_robot, compose, loop_config
+
+    paper = compose(["experiment=fig4b_biped"])
+    assert paper.seeds == 10 and paper.loop.episodes == 20 and paper.robot.resolution == "paper"
+    assert build_robot(paper).config.dx == 1 / 128 and loop_config(paper).codesign
+    smoke = compose(["+experiment=fig4a_arm", "+scale=smoke"])
+    assert smoke.robot.name == "arm" and smoke.loop.episodes == 2 and smoke.seeds == 10
+    assert not loop_config(smoke).codesign and build_robot(smoke).config.dx == 1 / 32
+    variant = compose(["experiment=fig4a_arm", "variant=vae_one_shot"])
+    assert variant.observer.kind == "vae" and variant.loop.one_shot
+    sized = compose(["variant=kmeans", "size=s4"])
+    assert sized.observer.kind == "kmeans" and sized.observer.clusters == 4
+    demo = compose([])
+    assert demo.experiment.name == "demo" and build_robot(demo).config.dx == 1 / 64
+
+
+def test_every_experiment_preset_composes():
+    from litl.app import build_robot, compose, loop_config
+
+    presets = sorted(p.stem for p in (ROOT / "litl" / "conf" / "experiment").glob("*.yaml"))
+    assert {"fig4a_arm", "fig4b_biped", "fig4c_elephant", "fig4d_bunny", "table1_biped",
+            "fig5_recon", "fig6_demos", "fig8_latent"} <= set(presets)
+    for preset in presets:
+        settings = compose([f"experiment={preset}", "+scale=smoke"])
+        assert settings.experiment.name == preset and settings.experiment.paper_scale
+        loop_config(settings)
+        build_robot(settings)
+
+
+@pytest.mark.parametrize("launcher", ["basic", "joblib", "submitit_local"])
+def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
+    args = ["-m", "+scale=smoke", "observer=kmeans", "seed=0,1", f"hydra/launcher={launcher}",
+            *QUIET]
+    if launcher == "submitit_local":
+        args += ["hydra.launcher.timeout_min=10"]
+    done = litl_command(args, tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    dirs = run_dirs(tmp_path / "multirun")
+    assert len(dirs) == 2
+    seeds = {json.loads((d / "metrics.jsonl").read_text().splitlines()[0])["seed"] for d in dirs}
+    assert seeds == {0, 1}
