@@ -16,7 +16,7 @@ import numpy as np
 
 import litl.robots
 from litl.conf.schema import Settings, register, to_settings
-from litl.loop import LearningConfig, LoopConfig, make_algorithm, run, seed_slice
+from litl.loop import LearningConfig, LoopConfig, run
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
 
@@ -111,13 +111,3 @@ def run_experiment(settings: Settings, run_dir):
           file=sys.stderr)
     return result
 
-
-def replay_seed(robot: Robot, config: LoopConfig, state, seed_index: int = 0, stride: int = 10):
-    """Positions and actuation of one seed's final controller and design (for animations)."""
-    from litl.viz import record_rollout
-
-    algorithm = make_algorithm(robot, config)
-    one = seed_slice(state, seed_index)
-    steps = algorithm.steps
-    return record_rollout(robot, algorithm.policy, (one.controller, one.observer), steps,
-                          design=robot.design(one.design), stride=min(stride, steps), check=False)

@@ -6,13 +6,12 @@ that published scene exactly.
 
 from __future__ import annotations
 
-import dataclasses
-
 import jax.numpy as jnp
 import numpy as np
 
 from litl.models.open_loop import SinusoidParams, sinusoid_policy
 from litl.robots.primitives import sample_box
+from litl.robots.robot import Scene
 from litl.sim import Body, Boundary, Design, SimConfig, SimState
 
 DX = 1.0 / 128
@@ -31,16 +30,6 @@ RECTANGLES = (
     (0.25, 0.0, 0.05, 0.1, 3),
 )
 N_ACTUATORS = 4
-
-
-@dataclasses.dataclass(frozen=True)
-class Scene:
-    """Everything needed to simulate a body: static config, layout, design, initial state."""
-
-    config: SimConfig
-    body: Body
-    design: Design
-    state: SimState
 
 
 def build(dtype=jnp.float32) -> Scene:

@@ -118,16 +118,24 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
         return [particles, *crosses, title]
 
     animation = manimation.FuncAnimation(fig, update, frames=frames, blit=False)
+    save_animation(animation, path, writer, dpi)
+    return path
+
+
+def save_animation(animation, path: Path, writer, dpi: int) -> None:
+    """Write `animation` to `path` under a temporary name, renamed when complete.
+
+    Same folder (an atomic rename), same suffix (the writers pick the container from it): a
+    failure leaves no half-written file at `path`.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
-    # Same folder (an atomic rename), same suffix (the writers pick the container from it).
-    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.partial{suffix}")
+    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.partial{path.suffix}")
     try:
         animation.save(temporary, writer=writer, dpi=dpi)
         os.replace(temporary, path)
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
-    return path
 
 
 def record_rollout(robot, policy, policy_params, steps: int, design=None, stride: int = 1,

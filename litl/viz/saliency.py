@@ -13,8 +13,6 @@ every snapshot of a rollout. A 3D field is drawn as its mid-depth slice (axis 2)
 
 from __future__ import annotations
 
-import os
-import uuid
 from pathlib import Path
 
 import jax
@@ -27,7 +25,7 @@ from matplotlib.figure import Figure
 
 from litl.models.controller import MLPController
 from litl.models.vae import AutoencoderParams, ConvAutoencoder, make_observer
-from litl.viz.animation import SUFFIXES, _writer
+from litl.viz.animation import SUFFIXES, _writer, save_animation
 from litl.viz.latent import PICK_SEED, check_fields, check_observer
 from litl.viz.robots import VizError
 
@@ -122,19 +120,6 @@ def _magnitude_plane(saliency_maps) -> np.ndarray:
     return magnitude if magnitude.ndim == 3 else magnitude[:, :, :, magnitude.shape[3] // 2]
 
 
-def _save_animation(animation, path: Path, writer, dpi: int) -> None:
-    # As animate_rollout: a temporary name in the same folder, renamed when complete, so a failure
-    # leaves no half-written file at `path`.
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.partial{path.suffix}")
-    try:
-        animation.save(temporary, writer=writer, dpi=dpi)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-
-
 def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
                      controller: MLPController, controller_params, snapshots, path,
                      actuator=None, times=None, fps: float = 10, stride: int = 1,
@@ -219,5 +204,5 @@ def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
         return [*images, title]
 
     animation = manimation.FuncAnimation(fig, update, frames=range(len(frames)), blit=False)
-    _save_animation(animation, path, writer, dpi)
+    save_animation(animation, path, writer, dpi)
     return path
