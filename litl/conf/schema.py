@@ -63,6 +63,7 @@ class LoopConf:
     episodes: int = 4              # K
     iterations: int = 5            # M
     design_learning_rate: float = 0.5
+    gradient_clip: Optional[float] = 1.0   # global-norm clip of θ's and φ's gradients (null: off)
     snapshot_stride: int = 20
     replay_capacity: int = 500     # B
     alpha: float = 0.5

@@ -118,8 +118,9 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         n_features = 2 * config.clusters * dim
     controller = MLPController(robot.n_actuators, config.controller_widths,
                                period=config.controller_period)
-    controller_adam = optax.adam(config.learning_rate)
-    design_adam = optax.adam(config.design_learning_rate)
+    clip = [optax.clip_by_global_norm(config.gradient_clip)] if config.gradient_clip else []
+    controller_adam = optax.chain(*clip, optax.adam(config.learning_rate))
+    design_adam = optax.chain(*clip, optax.adam(config.design_learning_rate))
 
     def policy(params, state, grid_velocity):
         controller_params, observer = params

@@ -33,6 +33,9 @@ class LoopConfig:
       controller_period: if set, the controller also sees (sin, cos) of a clock of this period (s).
       learning_rate: Adam step size of the controller parameters θ.
       design_learning_rate: Adam step size of the design variables φ (Young's modulus per region).
+      gradient_clip: clip the controller's and the design's gradients to this global norm before
+        Adam (None: no clipping). Gradients through long closed-loop rollouts can spike by orders
+        of magnitude; a spike would otherwise swamp Adam's second-moment estimate for many steps.
       snapshot_stride: record the grid velocity every this many steps.
       replay_capacity: B, snapshots kept in the replay buffer (a ring buffer).
       learning: the learning phase (N epochs, minibatch b, patience q, Adam step, β).
@@ -58,6 +61,7 @@ class LoopConfig:
     controller_period: float | None = None
     learning_rate: float = 0.01
     design_learning_rate: float = 0.5
+    gradient_clip: float | None = 1.0
     snapshot_stride: int = 10
     replay_capacity: int = 1000
     learning: LearningConfig = LearningConfig()
@@ -91,6 +95,9 @@ class LoopConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise LoopConfigError(f"loop.{name} must be a positive number, got {value!r}")
+        if self.gradient_clip is not None and not (
+                isinstance(self.gradient_clip, (int, float)) and self.gradient_clip > 0):
+            raise LoopConfigError(f"gradient_clip must be positive or None, got {self.gradient_clip!r}")
         if self.controller_period is not None and not self.controller_period > 0:
             raise LoopConfigError(f"controller_period must be positive or None, got {self.controller_period}")
         if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha <= 1):
