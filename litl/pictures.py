@@ -1,6 +1,7 @@
 """The pictures a finished run leaves in its directory (`python -m litl` calls `draw_run`).
 
-* the report of the run (`litl.report`): task_loss.png, recon_loss.png, table1.md/csv, summary.md;
+* the report of the run (`litl.report`): task_loss.png, recon_loss.png, recon_sgd.png,
+  table1.md/csv, summary.md;
 * robot.png (the robot with its actuators and targets) and robot.gif (seed 0's final controller
   and design, particles coloured by actuation);
 * for a learned observer: snapshots.png (Fig. 1: velocity snapshots, latents, reconstructions),

@@ -39,7 +39,8 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     assert run_dir.relative_to(tmp_path).parts[:3] == ("outputs", "demo", "biped")
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert len(records) == 2 * 2 * 2 and {r["seed"] for r in records} == {0, 1}
-    for name in ("task_loss.png", "recon_loss.png", "robot.png", "robot.gif", "snapshots.png",
+    for name in ("task_loss.png", "recon_loss.png", "recon_sgd.png", "learning.jsonl", "robot.png",
+                 "robot.gif", "snapshots.png",
                  "latent_sweeps.png", "saliency.gif", "summary.md", "table1.csv"):
         assert (run_dir / name).stat().st_size > 0, name
     assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()

@@ -59,6 +59,12 @@ def write_run(path, robot="biped", seeds=(0, 1, 2), episodes=3, iterations=4, fi
                     "first_nonfinite_step": 7 if bad else -1, "first_escape_step": -1,
                     "wall_s": 0.1 * step}))
     (path / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+    if learned:  # one learning phase per episode boundary, 3 epochs of 2 SGD steps each
+        phases = [json.dumps({"seed": seed, "phase": phase, "epochs_used": 3, "best_epoch": 3,
+                              "steps_per_epoch": 2, "recon_loss_train": 0.1, "recon_loss_val": 0.1,
+                              "kl": 0.01, "val_recon_history": [0.3 / (phase + e + 1) for e in range(3)]})
+                  for phase in range(episodes) for seed in seeds]
+        (path / "learning.jsonl").write_text("\n".join(phases) + "\n")
     return path
 
 
@@ -126,8 +132,8 @@ def test_multirun_with_two_observers_writes_every_file(tmp_path):
     (tmp_path / "multirun" / "multirun.yaml").write_text("hydra: {}\n")
     out = tmp_path / "report"
     assert main([str(tmp_path / "multirun"), "--out", str(out)]) == 0
-    for name in ("task_loss.png", "components.png", "recon_loss.png", "table1.md", "table1.csv",
-                 "summary.md", "summary.json"):
+    for name in ("task_loss.png", "components.png", "recon_loss.png", "recon_sgd.png", "table1.md",
+                 "table1.csv", "summary.md", "summary.json"):
         assert (out / name).stat().st_size > 0, name
     assert Image.open(out / "task_loss.png").size[0] > 100
 
@@ -185,7 +191,8 @@ def test_kmeans_only_writes_no_recon_plot_and_empty_table(tmp_path):
     write_run(tmp_path / "run", observer="kmeans")
     report = write_report(tmp_path)
     names = {p.name for p in report.files}
-    assert "recon_loss.png" not in names and "task_loss.png" in names
+    assert "recon_loss.png" not in names and "recon_sgd.png" not in names
+    assert "task_loss.png" in names
     assert (tmp_path / "table1.csv").read_text().strip() == "robot,label,retrain,mean,std,n"
     assert "No retraining measurements" in (tmp_path / "table1.md").read_text()
 

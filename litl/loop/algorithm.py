@@ -81,11 +81,13 @@ class Algorithm:
     controller: MLPController
 
 
-def empty_stats(dtype) -> LearningStats:
+def empty_stats(dtype, max_epochs: int) -> LearningStats:
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
     return LearningStats(recon_loss_train=nan, recon_loss_val=nan, kl=nan, val_loss=nan,
-                         epochs_used=zero, best_epoch=zero)
+                         epochs_used=zero, best_epoch=zero,
+                         val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
+                         steps_per_epoch=zero)
 
 
 def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
@@ -158,7 +160,7 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
             observer_optimizer=observer_optimizer,
             buffer=ReplayBuffer.empty(config.replay_capacity, grid_shape, dim, dtype),
             key=jax.random.key_data(key),
-            stats=empty_stats(dtype),
+            stats=empty_stats(dtype, config.learning.max_epochs),
         )
 
     def split_key(state: LoopState):

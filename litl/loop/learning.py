@@ -111,6 +111,8 @@ class LearningStats:
     val_loss: jnp.ndarray
     epochs_used: jnp.ndarray
     best_epoch: jnp.ndarray
+    val_recon_history: jnp.ndarray
+    steps_per_epoch: jnp.ndarray
 
 
 @struct.dataclass
@@ -125,6 +127,7 @@ class _LearningState:
       best_loss: () lowest validation loss so far (inf before the first epoch).
       best_epoch: () int32 epoch that reached it.
       stale_epochs: () int32 epochs since the last improvement.
+      val_recon_history: (max_epochs,) validation reconstruction loss per epoch (NaN: not run).
     """
 
     epoch: jnp.ndarray
@@ -134,6 +137,7 @@ class _LearningState:
     best_loss: jnp.ndarray
     best_epoch: jnp.ndarray
     stale_epochs: jnp.ndarray
+    val_recon_history: jnp.ndarray
 
 
 def _broadcast_mask(mask, like):
@@ -305,9 +309,10 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             (network, opt_state, _), _ = jax.lax.scan(
                 train_minibatch, (state.network, state.opt_state, batch_key), (slots, mask, indices)
             )
-            validation = masked_means(
+            means = masked_means(
                 params.replace(network=network), buffer, split.validation, split.validation_mask
-            )["total"].astype(state.best_loss.dtype)
+            )
+            validation = means["total"].astype(state.best_loss.dtype)
             epoch = state.epoch + 1
             improved = validation < state.best_loss
             return _LearningState(
@@ -320,6 +325,8 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
                 best_loss=jnp.where(improved, validation, state.best_loss),
                 best_epoch=jnp.where(improved, epoch, state.best_epoch),
                 stale_epochs=jnp.where(improved, 0, state.stale_epochs + 1),
+                val_recon_history=state.val_recon_history.at[state.epoch].set(
+                    means["recon"].astype(state.val_recon_history.dtype)),
             )
 
         def keep_going(state: _LearningState):
@@ -338,6 +345,7 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             best_loss=jnp.asarray(jnp.inf, params.scale.dtype),
             best_epoch=zero,
             stale_epochs=zero,
+            val_recon_history=jnp.full((config.max_epochs,), jnp.nan, params.scale.dtype),
         )
         final = jax.lax.while_loop(keep_going, run_epoch, initial)
 
@@ -351,6 +359,8 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             val_loss=validation["total"],
             epochs_used=final.epoch,
             best_epoch=final.best_epoch,
+            val_recon_history=final.val_recon_history,
+            steps_per_epoch=(jnp.sum(split.train_mask) + batch_size - 1) // batch_size,
         )
         return best, stats
 

@@ -6,6 +6,9 @@ writes into the run directory:
 
 * `run.json`: the settings (a rerun on the same directory must use the same ones);
 * `metrics.jsonl`: one JSON line per optimization iteration and seed (see `run`);
+* `learning.jsonl`: one JSON line per learning phase and seed: seed, phase (0: the initial
+  training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch and
+  val_recon_history (validation reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
 * `final/`: the final parameters of every seed (controller, design, observer).
 
@@ -130,20 +133,24 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     retrains = config.learned_observer and not (config.one_shot or config.simultaneous)
 
     checkpoints = Checkpoints(run_dir / "checkpoints")
-    metrics_file = run_dir / "metrics.jsonl"
+    metrics_file, learning_file = run_dir / "metrics.jsonl", run_dir / "learning.jsonl"
     template = stack_seeds([algorithm.init(seed) for seed in seeds])
-    counters = {"episodes_done": 0, "metrics_lines": 0,
+    counters = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0,
                 "loss_before_retrain": np.full(config.seeds, np.nan)}
     if checkpoints.latest() is not None:
         state, counters = checkpoints.restore(template, counters)
         records = _read_metrics(metrics_file, int(counters["metrics_lines"]))
+        learning = _read_metrics(learning_file, int(counters["learning_lines"]))
     else:
-        state, _ = bootstrap(shard_seeds(template))
+        state, stats = bootstrap(shard_seeds(template))
         records = []
+        learning = _learning_records(stats, seeds, 0) if config.learned_observer else []
+        counters["learning_lines"] = len(learning)
         checkpoints.save(0, state, counters)
     state = shard_seeds(state)
-    with open(metrics_file, "w") as out:
-        out.writelines(json.dumps(r) + "\n" for r in records)
+    for path, lines in ((metrics_file, records), (learning_file, learning)):
+        with open(path, "w") as out:
+            out.writelines(json.dumps(r) + "\n" for r in lines)
 
     episodes = config.episodes if stop_after_episodes is None else min(
         stop_after_episodes, config.episodes)
@@ -179,17 +186,39 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
                 _warn_unhealthy(metrics, seeds, episode, iteration)
             if retrains:
                 before = np.asarray(evaluate(state), np.float64)
-                state, _ = learn(state)
+                state, stats = learn(state)
+                phase = _learning_records(stats, seeds, episode + 1)
+                with open(learning_file, "a") as log:
+                    log.writelines(json.dumps(r) + "\n" for r in phase)
+                learning += phase
             else:
                 before = np.full(config.seeds, np.nan)
             checkpoints.save(episode + 1, state, {
                 "episodes_done": episode + 1, "metrics_lines": len(records),
-                "loss_before_retrain": before})
+                "learning_lines": len(learning), "loss_before_retrain": before})
     bar.close()
     checkpoints.close()
     if episodes == config.episodes:
         _save_final(run_dir / "final", state)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
+
+
+def _learning_records(stats, seeds, phase: int) -> list[dict]:
+    """One record per seed of a learning phase's statistics (batched over seeds)."""
+    stats = jax.tree.map(np.asarray, stats)
+    records = []
+    for s, seed in enumerate(seeds):
+        used = int(stats.epochs_used[s])
+        records.append({
+            "seed": seed, "phase": phase, "epochs_used": used,
+            "best_epoch": int(stats.best_epoch[s]),
+            "steps_per_epoch": int(stats.steps_per_epoch[s]),
+            "recon_loss_train": _json_value(stats.recon_loss_train[s]),
+            "recon_loss_val": _json_value(stats.recon_loss_val[s]),
+            "kl": _json_value(stats.kl[s]),
+            "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
+        })
+    return records
 
 
 def _read_metrics(path: pathlib.Path, lines: int) -> list[dict]:

@@ -102,3 +102,44 @@ def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, co
         lines += [(c, "--", f"{c.label} (training)") for c in train_curves if c.robot == robot]
         panels.append((robot, lines))
     return plot_panels(panels, path, "reconstruction loss", colors, level, log=True, steps=True)
+
+
+def plot_recon_sgd(groups, path, colors) -> pathlib.Path | None:
+    """Validation reconstruction loss after every epoch vs optimizer (SGD) step (Fig. 5).
+
+    One thin line per seed, in its label's colour; the steps of successive learning phases are
+    counted one after another (phase 0 is the initial training). Returns None without data.
+    """
+    robots = list(dict.fromkeys(g.robot for g in groups))
+    figure = Figure(figsize=(6.4, 4.2 * len(robots)))
+    drawn = False
+    for index, robot in enumerate(robots):
+        ax = figure.add_subplot(len(robots), 1, index + 1)
+        for group in (g for g in groups if g.robot == robot):
+            first = True
+            for run in group.runs:
+                for seed in sorted({r["seed"] for r in run.learning}):
+                    phases = sorted((r for r in run.learning if r["seed"] == seed),
+                                    key=lambda r: r["phase"])
+                    x, y, start = [], [], 0
+                    for phase in phases:
+                        history = [np.nan if v is None else v for v in phase["val_recon_history"]]
+                        x += [start + (e + 1) * phase["steps_per_epoch"] for e in range(len(history))]
+                        y += history
+                        start = x[-1] if x else start
+                    if x:
+                        ax.plot(x, y, color=colors[group.label], lw=0.8, alpha=0.8,
+                                label=group.label if first else None)
+                        first, drawn = False, True
+        ax.set_title(robot)
+        ax.set_xlabel("SGD step (learning phases one after another)")
+        ax.set_ylabel("validation reconstruction loss")
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize="small")
+    if not drawn:
+        return None
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    return pathlib.Path(path)

@@ -48,11 +48,14 @@ class Run:
       settings: the parsed `run.json` (``robot``, ``dx``, ``steps``, ..., ``loop``).
       records: the parsed lines of `metrics.jsonl`, in file order; non-finite and null floats
         are NaN.
+      learning: the parsed lines of `learning.jsonl` (one per learning phase and seed; empty when
+        the file is absent, e.g. for k-means).
     """
 
     path: pathlib.Path
     settings: dict
     records: tuple[dict, ...]
+    learning: tuple[dict, ...] = ()
 
     @property
     def robot(self) -> str:
@@ -139,7 +142,27 @@ def load_run(path) -> Run:
         raise ReportError(f"{path / 'run.json'}: cannot be read ({error})") from None
     if not isinstance(settings, dict) or not isinstance(settings.get("loop", {}), dict):
         raise ReportError(f"{path / 'run.json'}: expected an object with a 'loop' object")
-    return Run(path=path, settings=settings, records=read_metrics(path / "metrics.jsonl"))
+    return Run(path=path, settings=settings, records=read_metrics(path / "metrics.jsonl"),
+               learning=read_learning(path / "learning.jsonl"))
+
+
+def read_learning(path) -> tuple[dict, ...]:
+    """The learning phases of a run (`learning.jsonl`); () if the file does not exist."""
+    path = pathlib.Path(path)
+    if not path.exists():
+        return ()
+    records = []
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as error:
+            raise ReportError(f"{path}, line {number}: not valid JSON ({error.msg})") from None
+        if not isinstance(record, dict) or not {"seed", "phase", "steps_per_epoch",
+                                                "val_recon_history"} <= set(record):
+            raise ReportError(f"{path}, line {number}: expected a learning-phase record with "
+                              f"seed, phase, steps_per_epoch and val_recon_history")
+        records.append(record)
+    return tuple(records)
 
 
 def load_runs(path) -> list[Run]:

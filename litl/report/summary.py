@@ -225,6 +225,9 @@ def write_report(source, out=None, level: float = 0.9) -> Report:
     else:
         summary["notes"].append("no learned observer (vae, ae) recorded a reconstruction loss: "
                                 "recon_loss.png was not written")
+    per_step = figures.plot_recon_sgd(learned, out / "recon_sgd.png", colors) if learned else None
+    if per_step:
+        written.append(per_step)
     rows = table1(groups)
     written += _write_table1(rows, out)
     if not rows:

@@ -52,6 +52,12 @@ def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
     assert records[-1]["design"] != records[0]["design"]
     # The observer was retrained: its statistics change between episodes.
     assert records[0]["recon_loss_val"] != records[4]["recon_loss_val"]
+    # learning.jsonl: the initial training (phase 0) and one phase after each episode, per seed.
+    phases = [json.loads(line) for line in (vae_run.run_dir / "learning.jsonl").read_text().splitlines()]
+    assert [(p["phase"], p["seed"]) for p in phases] == [(k, s) for k in range(4) for s in (0, 1)]
+    for p in phases:
+        assert len(p["val_recon_history"]) == p["epochs_used"] >= 1 and p["steps_per_epoch"] >= 1
+    assert phases[2]["recon_loss_val"] == records[4]["recon_loss_val"]  # phase 1 serves episode 1
 
 
 def test_final_parameters_are_saved_and_load(vae_run):
@@ -81,6 +87,7 @@ def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
 
     resumed = run(tiny_robot(), tiny_config(episodes=3), run_dir, progress=False)
     assert without_time(read_metrics(run_dir)) == without_time(read_metrics(vae_run.run_dir))
+    assert (run_dir / "learning.jsonl").read_text() == (vae_run.run_dir / "learning.jsonl").read_text()
     for a, b in zip(jax.tree.leaves(resumed.state), jax.tree.leaves(vae_run.state)):
         np.testing.assert_array_equal(a, b)   # bitwise
 
