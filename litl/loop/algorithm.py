@@ -22,7 +22,6 @@ from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optax
 from flax import struct
 
@@ -109,8 +108,8 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         encode = vae.make_observer(model)
         n_features = config.latent_dim
         learning_phase = make_learning_phase(model, config.learning)
-        observer_step = vae.make_train_step(model, optax.adam(config.learning.learning_rate),
-                                            config.learning.beta)
+        observer_adam = optax.adam(config.learning.learning_rate)
+        observer_step = vae.make_train_step(model, observer_adam, config.learning.beta)
     else:
         model = None
         if config.clusters > robot.layout.n_particles:
@@ -146,7 +145,7 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         controller_params = controller.init(controller_key, features, time=jnp.zeros((), dtype))
         if config.learned_observer:
             observer = vae.init_autoencoder(model, observer_key, dtype)
-            observer_optimizer = optax.adam(config.learning.learning_rate).init(observer.network)
+            observer_optimizer = observer_adam.init(observer.network)
         else:
             observer = fit_kmeans(initial_state.x, config.clusters, seed=seed)
             observer_optimizer = ()
@@ -167,22 +166,18 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
         return state.replace(key=jax.random.key_data(key)), sub
 
-    def learn(state: LoopState):
+    def learn(state: LoopState, alpha=config.alpha):
         if not config.learned_observer:
             return state, state.stats
         state, key = split_key(state)
         trained, stats = learning_phase(state.observer, state.buffer, key)
-        observer = soft_update(state.observer, trained, config.alpha)
+        observer = soft_update(state.observer, trained, alpha)
         return state.replace(observer=observer, stats=stats), stats
 
     def bootstrap(state: LoopState):
         _, (_, trajectory) = simulate(state.controller, state.design, state.observer)
-        state = state.replace(buffer=add(state.buffer, trajectory.snapshots))
-        if not config.learned_observer:
-            return state, state.stats
-        state, key = split_key(state)
-        trained, stats = learning_phase(state.observer, state.buffer, key)
-        return state.replace(observer=trained, stats=stats), stats
+        # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
+        return learn(state.replace(buffer=add(state.buffer, trajectory.snapshots)), alpha=1.0)
 
     def optimize(state: LoopState):
         value_and_grad = jax.value_and_grad(simulate, argnums=(0, 1), has_aux=True)
@@ -238,7 +233,3 @@ def stack_seeds(states: list[LoopState]) -> LoopState:
 def seed_slice(states: LoopState, index: int) -> LoopState:
     """One seed's state out of a stacked one."""
     return jax.tree.map(lambda leaf: leaf[index], states)
-
-
-def to_numpy(tree):
-    return jax.tree.map(np.asarray, tree)

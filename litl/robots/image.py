@@ -31,7 +31,7 @@ from typing import Mapping
 import numpy as np
 
 from litl.robots.layout import Layout, LayoutError
-from litl.robots.shapes import LabelMerger, lattice
+from litl.robots.shapes import LabelMerger, check_labels, lattice
 
 ACTUATOR_COLOURS = ("#ff0000", "#0000ff", "#ffff00", "#ff00ff", "#00ffff", "#ff8000", "#8000ff",
                     "#00ff00")
@@ -140,18 +140,15 @@ def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_ce
         mask = inside & ~empty[row, column] & np.all(sampled == colour, axis=-1)
         if not mask.any():
             continue
-        actuator = role.get("actuator")
-        region = role.get("region", 0 if actuator is None else None)
+        name = "#%02x%02x%02x" % colour
+        actuator, region = role.get("actuator"), role.get("region", 0)
         fiber = role.get("fiber", (0.0, 1.0) if actuator is not None else None)
         try:
-            if fiber is not None:
-                fiber = np.asarray(fiber, np.float64) / np.linalg.norm(fiber)
-            labels.add("#%02x%02x%02x" % colour, mask, actuator, None if fiber is None else tuple(fiber),
-                       region, tuple(role.get("groups", ())), bool(role.get("pinned", False)), points)
-        except (TypeError, ValueError) as error:
-            if isinstance(error, LayoutError):
-                raise
-            raise LayoutError(f"legend entry {'#%02x%02x%02x' % colour}: {role!r} is malformed: {error}") from None
+            fiber = check_labels(actuator, fiber, region, dim=2)
+        except LayoutError as error:
+            raise LayoutError(f"legend entry {name}: {error}") from None
+        labels.add(name, mask, actuator, fiber, region, tuple(role.get("groups", ())),
+                   bool(role.get("pinned", False)), points)
     if not labels.occupied.any():
         raise LayoutError(
             f"{source} is too small for dx={dx:g}: no particle landed on a robot pixel; make the "

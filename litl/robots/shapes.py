@@ -235,17 +235,24 @@ class Part:
     def __post_init__(self):
         groups = (self.groups,) if isinstance(self.groups, str) else tuple(self.groups)
         object.__setattr__(self, "groups", groups)
-        if self.actuator is not None and (not isinstance(self.actuator, (int, np.integer)) or self.actuator < 0):
-            raise LayoutError(f"actuator id must be an integer >= 0 or None, got {self.actuator!r}")
-        if self.region is not None and (not isinstance(self.region, (int, np.integer)) or self.region < 0):
-            raise LayoutError(f"region id must be an integer >= 0 or None, got {self.region!r}")
-        if self.fiber is not None:
-            fiber = _vector(self.fiber, "fiber direction", self.shape.dim)
-            if np.linalg.norm(fiber) == 0:
-                raise LayoutError("fiber direction must not be the zero vector")
-            if self.actuator is None:
-                raise LayoutError("a fiber direction was given for a passive part; set actuator=")
-            object.__setattr__(self, "fiber", tuple(fiber / np.linalg.norm(fiber)))
+        object.__setattr__(self, "fiber",
+                           check_labels(self.actuator, self.fiber, self.region, self.shape.dim))
+
+
+def check_labels(actuator, fiber, region, dim: int):
+    """Validate a part's (or a legend colour's) labels; return the unit fiber (or None)."""
+    for name, value in (("actuator", actuator), ("region", region)):
+        if value is not None and (isinstance(value, bool)
+                                  or not isinstance(value, (int, np.integer)) or value < 0):
+            raise LayoutError(f"{name} id must be an integer >= 0 or None, got {value!r}")
+    if fiber is None:
+        return None
+    if actuator is None:
+        raise LayoutError("a fiber direction was given for a passive part (no actuator); set an actuator")
+    fiber = _vector(fiber, "fiber direction", dim)
+    if np.linalg.norm(fiber) == 0:
+        raise LayoutError("fiber direction must not be the zero vector")
+    return tuple(fiber / np.linalg.norm(fiber))
 
 
 def lattice(lower, upper, spacing) -> np.ndarray:

@@ -109,3 +109,15 @@ def test_files_that_are_not_images_or_legends_fail_clearly(tmp_path):
         layout_from_png(save(tmp_path, drawing()), -1.0, DX)
     with pytest.raises(LayoutError, match="too small for dx"):
         layout_from_png(save(tmp_path, drawing()), 0.001, DX)
+
+
+@pytest.mark.parametrize("role, message", [
+    ({"actuator": 0, "fiber": [0, 0]}, "legend entry #ff0000: fiber direction must not be the zero"),
+    ({"actuator": -1}, "legend entry #ff0000: actuator id must be an integer >= 0"),
+    ({"actuator": 0, "region": "front"}, "legend entry #ff0000: region id must be an integer"),
+    ({"fiber": [1, 0]}, "legend entry #ff0000: a fiber direction was given for a passive part"),
+])
+def test_malformed_legend_labels_name_the_colour(tmp_path, role, message):
+    legend = {"#000000": {}, "#0000ff": {"actuator": 1}, "#808080": {}, "#ff0000": role}
+    with pytest.raises(LayoutError, match=message):
+        layout_from_png(save(tmp_path, drawing()), 0.5, DX, legend=legend)
