@@ -13,7 +13,9 @@ import numpy as np
 
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.tasks import Task, make_task_loss
-from litl.sim import Body, ConfigError, Design, SimConfig, SimState, check_time_step
+from litl.sim import (
+    Body, ConfigError, Design, SimConfig, SimState, check_actuation, check_time_step,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,10 +41,10 @@ class Material:
     """
 
     youngs_modulus: float = 20.0
-    youngs_modulus_bounds: tuple[float, float] = (5.0, 30.0)
+    youngs_modulus_bounds: tuple[float, float] = (15.0, 30.0)
     poisson_ratio: float = 0.25
     density: float = 1.0
-    actuator_strength: float = 4.0
+    actuator_strength: float = 3.0
 
     def __post_init__(self):
         low, high = self.youngs_modulus_bounds
@@ -87,9 +89,11 @@ class Robot:
         check_fits(self.layout, self.config, self.name)
         if self.task is not None:
             make_task_loss(self.task, self.layout)  # validates groups and targets
-        # The stiffest design allowed must still be stable at this dt.
-        stiffest = self.design(jnp.full((self.n_regions,), self.material.youngs_modulus_bounds[1]))
-        check_time_step(self.config, self.body(), stiffest)
+        # The stiffest design allowed must still be stable at this dt, and the softest must hold
+        # its actuators without being crushed (co-design drifts to either bound).
+        low, high = self.material.youngs_modulus_bounds
+        check_time_step(self.config, self.body(), self.design(jnp.full((self.n_regions,), high)))
+        check_actuation(self.body(), self.design(jnp.full((self.n_regions,), low)))
 
     # ---- sizes
     @property

@@ -11,10 +11,23 @@ import numpy as np
 from litl.sim.config import ConfigError, SimConfig
 from litl.sim.state import Body, Design, SimState
 
-# Elastic CFL number c dt / dx above which explicit MLS-MPM with quadratic B-splines blew up in
-# litl's own sweeps (2D and 3D, both materials: stable up to 1.0, blown up from 1.1); 0.9 leaves a
-# margin. The published walker scene runs at 0.75.
-MAX_CFL = 0.9
+# Elastic CFL number c dt / dx allowed. A lone particle (one that separated from the body, or a
+# surface particle) oscillates on its own stencil at omega = 2 c / dx, which symplectic Euler keeps
+# stable only for omega dt < 2, i.e. CFL < 1 in the linear regime; fixed-corotated stress stiffens
+# under large stretch, so the margin must be real. Measured on the biped with a trained controller:
+# at CFL 0.81 a crushed foot particle was ejected, rang and blew up at step 475; at 0.61 and 0.73
+# (and on 33 aggressive controllers) every rollout stayed finite. The published walker scene runs
+# at 0.746, the largest value litl accepts.
+MAX_CFL = 0.75
+
+# Largest active strain an actuator may impose: actuator strength / (lambda + 2 mu) of the softest
+# actuated particle, the 1D strain at which elastic stress balances the active stress. Fixed-
+# corotated Kirchhoff stress resists compression at most (lambda + 2 mu) / 4 (at J = 1/2) and less
+# beyond, so an actuator near that crushes and inverts particles. Measured on the biped (33
+# aggressive open-loop controllers, 500 steps): ratio 0.67 (E = 5, strength 4) blew up 32 of 33;
+# 0.33 blew up 1 and inverted 2; 0.22 inverted 1 of 33; 0.167 and below kept every particle's
+# det F above 0.07 and all rollouts finite. The published walker scene uses 0.133.
+MAX_ACTIVE_STRAIN = 0.2
 
 
 class SimulationError(RuntimeError):
@@ -48,6 +61,35 @@ def check_time_step(config: SimConfig, body: Body, design: Design) -> float:
             f"or lower Young's modulus / actuator strength, raise density, or coarsen dx."
         )
     return cfl
+
+
+def check_actuation(body: Body, design: Design) -> float:
+    """Raise `ConfigError` if an actuator can crush its material; return the largest active strain.
+
+    The active strain of a particle is |actuator strength| / (lambda + 2 mu): how far the actuator
+    alone would compress the material along its fiber. Above `MAX_ACTIVE_STRAIN` particles get
+    crushed and inverted under strong actuation, and rollouts blow up.
+    """
+    actuator = np.asarray(body.actuator)
+    strength = np.abs(np.asarray(design.actuator_strength, np.float64))
+    if not (actuator >= 0).any() or not strength.size:
+        return 0.0
+    mu, lam = (np.asarray(p, np.float64) for p in design.lame())
+    stiffness = np.broadcast_to(lam + 2 * mu, actuator.shape)
+    active = actuator >= 0
+    strain = strength[actuator[active]] / stiffness[active]
+    worst = int(np.argmax(strain))
+    ratio = float(strain[worst])
+    if not np.isfinite(ratio) or ratio > MAX_ACTIVE_STRAIN:
+        needed = float(strength[actuator[active]][worst]) / MAX_ACTIVE_STRAIN
+        raise ConfigError(
+            f"actuators are too strong for the material: actuator strength "
+            f"{float(strength[actuator[active]][worst]):.4g} against lambda + 2 mu = "
+            f"{float(stiffness[active][worst]):.4g} is an active strain of {ratio:.3g}, above "
+            f"{MAX_ACTIVE_STRAIN}; particles would be crushed and inverted. Lower the actuator "
+            f"strength, or raise Young's modulus (its lower bound, for co-design) so that "
+            f"lambda + 2 mu >= {needed:.4g}.")
+    return ratio
 
 
 def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> None:

@@ -24,7 +24,9 @@ def block(
     if n_actuators:
         fiber[:, 1] = 1.0
     density = 1.0
-    design = Design.uniform(n, youngs, 0.3, density, [0.3 * youngs] * n_actuators, dtype)
+    # An active strain of 0.19, under `litl.sim.safety.MAX_ACTIVE_STRAIN`.
+    strength = 0.25 * youngs
+    design = Design.uniform(n, youngs, 0.3, density, [strength] * n_actuators, dtype)
     body = Body(
         volume=jnp.full((n,), (dx / 2) ** dim, dtype),
         actuator=jnp.asarray(actuator),
@@ -34,7 +36,7 @@ def block(
     g = [0.0] * dim
     g[1] = gravity
     mu, lam = (float(p[0]) for p in design.lame())
-    speed = np.sqrt((lam + 2 * mu + 0.3 * youngs) / density)
+    speed = np.sqrt((lam + 2 * mu + strength) / density)
     config = SimConfig(
         grid_shape=(n_grid,) * dim, dx=dx, dt=dt if dt is not None else 0.4 * dx / speed,
         gravity=tuple(g), material=material,
