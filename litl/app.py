@@ -82,6 +82,7 @@ def loop_config(settings: Settings) -> LoopConfig:
         latent_dim=observer.latent_dim, channels=tuple(observer.channels),
         clusters=observer.clusters, controller_widths=tuple(controller.widths),
         controller_period=controller.period, learning_rate=controller.learning_rate,
+        feature_gradient=controller.feature_gradient,
         design_learning_rate=loop.design_learning_rate, gradient_clip=loop.gradient_clip,
         snapshot_stride=loop.snapshot_stride,
         replay_capacity=loop.replay_capacity,

@@ -2,8 +2,9 @@
 
 * the report of the run (`litl.report`): task_loss.png, recon_loss.png, recon_sgd.png,
   table1.md/csv, summary.md;
-* robot.png (the robot with its actuators and targets) and robot.gif (seed 0's final controller
-  and design, particles coloured by actuation);
+* robot.png (the robot with its actuators and targets) and robot.gif (the final controller and
+  design of the first seed whose rollout stays finite, particles coloured by actuation; seeds that
+  blew up are skipped and named on stderr);
 * for a learned observer: snapshots.png (Fig. 1: velocity snapshots, latents, reconstructions),
   latent_sweeps.png (Fig. 8) and saliency.gif; for k-means: clusters.png (Fig. 7).
 """
@@ -11,6 +12,7 @@
 from __future__ import annotations
 
 import pathlib
+import sys
 
 import matplotlib
 
@@ -23,6 +25,7 @@ from litl.loop import make_algorithm, seed_slice  # noqa: E402
 from litl.report import write_report  # noqa: E402
 from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
 from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
+from litl.sim import SimulationError  # noqa: E402
 from litl.viz.saliency import animate_saliency  # noqa: E402
 
 SNAPSHOTS = 6
@@ -34,25 +37,44 @@ def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: b
     run_dir = pathlib.Path(run_dir)
     written = []
     algorithm = make_algorithm(robot, config)
-    seed0 = seed_slice(result.state, 0)
+    chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
+    state = seed_slice(result.state, chosen if chosen is not None else 0)
     if pictures:
         written += write_report(run_dir).files
         figure = draw(robot).figure
         figure.savefig(run_dir / "robot.png", dpi=100)
         plt.close(figure)
         written.append(run_dir / "robot.png")
-        written += _representation(robot, algorithm, seed0, run_dir)
-    if animation:
-        steps = algorithm.steps
-        positions, actuation = record_rollout(
-            robot, algorithm.policy, (seed0.controller, seed0.observer), steps,
-            design=robot.design(seed0.design), stride=min(stride, steps), check=False)
-        written.append(animate_rollout(robot, positions, actuation, run_dir / "robot.gif",
-                                       fps=20))
+        if chosen is not None:
+            written += _representation(robot, algorithm, state, run_dir, stride=config.snapshot_stride)
+    if animation and recording is not None:
+        written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
     return written
 
 
-def _representation(robot, algorithm, state, run_dir: pathlib.Path) -> list[pathlib.Path]:
+def _first_healthy_seed(robot, algorithm, states, config, stride):
+    """(index, (positions, actuation)) of the first seed whose final rollout stays finite."""
+    steps = algorithm.steps
+    for index in range(config.seeds):
+        state = seed_slice(states, index)
+        try:
+            recording = record_rollout(
+                robot, algorithm.policy, (state.controller, state.observer), steps,
+                design=robot.design(state.design), stride=min(stride, steps), check=True)
+        except SimulationError as error:
+            print(f"pictures: skipping seed {config.seed + index}: {error}", file=sys.stderr)
+            continue
+        if all(np.all(np.isfinite(a)) for a in recording):
+            return index, recording
+        print(f"pictures: skipping seed {config.seed + index}: its rollout is not finite",
+              file=sys.stderr)
+    print("pictures: no seed has a finite final rollout; no animation or representation "
+          "pictures were drawn", file=sys.stderr)
+    return None, None
+
+
+def _representation(robot, algorithm, state, run_dir: pathlib.Path,
+                    stride: int) -> list[pathlib.Path]:
     if algorithm.model is None:
         figure = plt.figure(figsize=(6, 5))
         ax = figure.add_subplot(111, projection="3d" if robot.dim == 3 else None)
@@ -75,6 +97,14 @@ def _representation(robot, algorithm, state, run_dir: pathlib.Path) -> list[path
         figure = make(run_dir / name)
         plt.close(figure)
         written.append(run_dir / name)
+    times = None
+    if algorithm.controller.period is not None:
+        # The newest snapshots are the latest rollout's last ones: snapshot k of a rollout is the
+        # field after step (k + 1) * stride, which the policy reads at that time.
+        stride = min(stride, algorithm.steps)
+        last = algorithm.steps // stride
+        times = (last - len(snapshots) + 1 + np.arange(len(snapshots))) * stride * robot.config.dt
     written.append(animate_saliency(algorithm.model, state.observer, algorithm.controller,
-                                    state.controller, snapshots, run_dir / "saliency.gif"))
+                                    state.controller, snapshots, run_dir / "saliency.gif",
+                                    times=times))
     return written

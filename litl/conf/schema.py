@@ -41,6 +41,7 @@ class ControllerConf:
     widths: List[int] = field(default_factory=lambda: [64, 64])
     period: Optional[float] = None  # seconds; adds a (sin, cos) clock input when set
     learning_rate: float = 0.01
+    feature_gradient: str = "stop"  # stop | full (the paper: backpropagate through the features)
 
 
 @dataclass

@@ -13,6 +13,10 @@ batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
 * `learn(state)`: the learning phase on a copy Θ′ (even train/validation split, minibatch epochs,
   early stopping), then Θ ← α·Θ′ + (1 − α)·Θ.
 * `evaluate(state)`: the task loss of the current θ, φ, Θ without a gradient (Table 1's "before").
+
+An iteration whose rollout blew up or lost particles, or whose loss or gradient is not finite, is
+skipped: parameters, optimizer states and the replay buffer stay as they were, and the metrics say
+why (`SKIP_REASONS`). Each seed also keeps the parameters of its best rollout so far (`Best`).
 """
 
 from __future__ import annotations
@@ -35,6 +39,28 @@ from litl.robots.robot import Robot
 from litl.sim import make_rollout
 
 
+# Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
+SKIP_REASONS = {1: "particles_escaped", 2: "simulation_nonfinite", 3: "loss_nonfinite",
+                4: "gradient_nonfinite"}
+
+
+@struct.dataclass
+class Best:
+    """The parameters whose rollout had the lowest task loss so far (one seed).
+
+    Attributes:
+      task_loss: () that loss (+inf before the first healthy rollout).
+      step: () int32 global optimization iteration of that rollout (-1 before it).
+      controller, design, observer: θ, φ (R,), Θ used in that rollout.
+    """
+
+    task_loss: jnp.ndarray
+    step: jnp.ndarray
+    controller: Any
+    design: jnp.ndarray
+    observer: Any
+
+
 @struct.dataclass
 class LoopState:
     """Everything one seed's run carries from iteration to iteration (a pytree; vmappable).
@@ -49,6 +75,9 @@ class LoopState:
       buffer: the replay buffer of grid velocity snapshots.
       key: (2,) uint32 raw PRNG key data (plain arrays checkpoint and compare bitwise).
       stats: `LearningStats` of the latest learning phase (NaN before the first).
+      best: the `Best` parameters so far.
+      iteration: () int32 optimization iterations run so far (skipped ones included).
+      consecutive_skips: () int32 iterations skipped in a row up to now.
     """
 
     controller: Any
@@ -60,6 +89,24 @@ class LoopState:
     buffer: ReplayBuffer
     key: jnp.ndarray
     stats: LearningStats
+    best: Best
+    iteration: jnp.ndarray
+    consecutive_skips: jnp.ndarray
+
+
+def skip_reason(health, total, gradient_norm) -> jnp.ndarray:
+    """() int32 code in `SKIP_REASONS` (0: the iteration may update parameters)."""
+    nonfinite, escaped = health.first_nonfinite_step, health.first_escape_step
+    # The earlier failure is the cause (particles outside the grid turn to NaN a step later).
+    escaped_first = (escaped >= 0) & ((nonfinite < 0) | (escaped < nonfinite))
+    return jnp.select(
+        [escaped_first, nonfinite >= 0, ~jnp.isfinite(total), ~jnp.isfinite(gradient_norm)],
+        [1, 2, 3, 4], 0).astype(jnp.int32)
+
+
+def keep_if(condition, new, old):
+    """`new` where the () bool `condition` holds, else `old`, leaf by leaf (a select, vmappable)."""
+    return jax.tree.map(lambda a, b: jnp.where(condition, a, b), new, old)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,6 +173,8 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
     def policy(params, state, grid_velocity):
         controller_params, observer = params
         features = encode(jax.lax.stop_gradient(observer), state, grid_velocity)
+        if config.feature_gradient == "stop":
+            features = jax.lax.stop_gradient(features)
         time = state.step.astype(dtype) * sim_config.dt
         return controller.apply(controller_params, features.astype(dtype), time=time)
 
@@ -160,6 +209,10 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
             buffer=ReplayBuffer.empty(config.replay_capacity, grid_shape, dim, dtype),
             key=jax.random.key_data(key),
             stats=empty_stats(dtype, config.learning.max_epochs),
+            best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
+                      controller=controller_params, design=design, observer=observer),
+            iteration=jnp.zeros((), jnp.int32),
+            consecutive_skips=jnp.zeros((), jnp.int32),
         )
 
     def split_key(state: LoopState):
@@ -175,14 +228,26 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         return state.replace(observer=observer, stats=stats), stats
 
     def bootstrap(state: LoopState):
-        _, (_, trajectory) = simulate(state.controller, state.design, state.observer)
+        total, (_, trajectory) = simulate(state.controller, state.design, state.observer)
+        # A failed rollout's snapshots never enter the buffer.
+        healthy = skip_reason(trajectory.health, total, jnp.zeros((), dtype)) == 0
+        buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots), state.buffer)
         # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
-        return learn(state.replace(buffer=add(state.buffer, trajectory.snapshots)), alpha=1.0)
+        return learn(state.replace(buffer=buffer), alpha=1.0)
 
     def optimize(state: LoopState):
         value_and_grad = jax.value_and_grad(simulate, argnums=(0, 1), has_aux=True)
         (total, (components, trajectory)), (controller_grad, design_grad) = value_and_grad(
             state.controller, state.design, state.observer)
+        controller_grad_norm = optax.tree.norm(controller_grad)
+        design_grad_norm = optax.tree.norm(design_grad)
+        reason = skip_reason(trajectory.health, total, controller_grad_norm + design_grad_norm)
+        healthy = reason == 0
+        before = state
+        improved = healthy & (total < state.best.task_loss)
+        best = keep_if(improved, Best(task_loss=total, step=state.iteration,
+                                      controller=state.controller, design=state.design,
+                                      observer=state.observer), state.best)
         updates, controller_optimizer = controller_adam.update(
             controller_grad, state.controller_optimizer, state.controller)
         state = state.replace(controller=optax.apply_updates(state.controller, updates),
@@ -202,14 +267,20 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
                 state.observer, state.observer_optimizer, snapshots, key)
             state = state.replace(observer=observer, observer_optimizer=observer_optimizer)
             recon = losses["recon"]
+        # A failed iteration changes nothing but the key and the counters (and says why).
+        state = keep_if(healthy, state, before).replace(
+            key=state.key, best=best, iteration=state.iteration + 1,
+            consecutive_skips=jnp.where(healthy, 0, state.consecutive_skips + 1))
         metrics = {
             "task_loss": total,
             **{f"task/{name}": value for name, value in components.items()},
             "design_mean": jnp.mean(state.design),
             "design_min": jnp.min(state.design),
             "design_max": jnp.max(state.design),
-            "controller_grad_norm": optax.tree.norm(controller_grad),
-            "design_grad_norm": optax.tree.norm(design_grad),
+            "controller_grad_norm": controller_grad_norm,
+            "design_grad_norm": design_grad_norm,
+            "skipped": reason,
+            "consecutive_skips": state.consecutive_skips,
             "simultaneous_recon_loss": recon,
             "first_nonfinite_step": trajectory.health.first_nonfinite_step,
             "first_escape_step": trajectory.health.first_escape_step,

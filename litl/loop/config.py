@@ -9,6 +9,7 @@ from litl.loop.learning import LearningConfig
 
 OBSERVERS = ("vae", "ae", "kmeans")
 DTYPES = ("float32", "float64")
+FEATURE_GRADIENTS = ("full", "stop")
 
 
 class LoopConfigError(ValueError):
@@ -31,6 +32,11 @@ class LoopConfig:
       clusters: k, clusters of the k-means observer.
       controller_widths: hidden layers of the MLP controller.
       controller_period: if set, the controller also sees (sin, cos) of a clock of this period (s).
+      feature_gradient: ``"stop"`` treats the observer's features as constants in the task-loss
+        gradient (the gradient reaches θ through the actuation's effect on the motion only);
+        ``"full"`` also differentiates the features w.r.t. the simulated grid (the paper's
+        end-to-end backpropagation), which chains the controller's sensitivity through every
+        step and explodes with the horizon (see `benchmarks/gradient_horizon.py`).
       learning_rate: Adam step size of the controller parameters θ.
       design_learning_rate: Adam step size of the design variables φ (Young's modulus per region).
       gradient_clip: clip the controller's and the design's gradients to this global norm before
@@ -59,6 +65,7 @@ class LoopConfig:
     clusters: int = 6
     controller_widths: tuple[int, ...] = (64, 64)
     controller_period: float | None = None
+    feature_gradient: str = "stop"
     learning_rate: float = 0.01
     design_learning_rate: float = 0.5
     gradient_clip: float | None = 1.0
@@ -105,6 +112,9 @@ class LoopConfig:
                 f"alpha must lie in (0, 1] (1 = no target smoothing), got {self.alpha!r}")
         if self.one_shot and self.simultaneous:
             raise LoopConfigError("one_shot and simultaneous exclude each other; pick one ablation")
+        if self.feature_gradient not in FEATURE_GRADIENTS:
+            raise LoopConfigError(f"feature_gradient must be one of {FEATURE_GRADIENTS}, got "
+                                  f"{self.feature_gradient!r}")
         if self.dtype not in DTYPES:
             raise LoopConfigError(f"dtype must be one of {DTYPES}, got {self.dtype!r}")
 

@@ -10,7 +10,12 @@ writes into the run directory:
   training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch and
   val_recon_history (validation reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
-* `final/`: the final parameters of every seed (controller, design, observer).
+* `final/`: the final parameters of every seed (controller, design, observer);
+* `best/` and `best.json`: the parameters of each seed's best rollout, its task loss and iteration.
+
+An iteration whose rollout blew up, lost particles or gave a non-finite loss or gradient changes
+no parameters, optimizer states or replay buffer; its metrics line says `skipped` with the reason,
+and a seed that keeps failing (`MANY_SKIPS` in a row) is reported on stderr.
 
 Started again on a directory holding a checkpoint, `run` continues from it and ends with results
 identical to an uninterrupted run: all state lives in the checkpoint, and `metrics.jsonl` is cut
@@ -31,11 +36,15 @@ import numpy as np
 import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from litl.loop.algorithm import LoopState, make_algorithm, stack_seeds
+from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.config import LoopConfig
 from litl.loop.progress import Progress
 from litl.robots.robot import Robot
+
+
+# Iterations skipped in a row after which a seed is reported as failing.
+MANY_SKIPS = 5
 
 
 class RunDirectoryError(ValueError):
@@ -109,7 +118,8 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
       phase that produced the observer in use), retrain_change (Table 1: task objective before
       the latest retraining minus after it plus one optimization step, so negative means
       retraining cost progress; on iteration 1 of episodes after a learning phase, else null),
-      health steps and wall_s.
+      health steps, skipped (null, or why the iteration changed nothing: one of
+      `SKIP_REASONS`' values), consecutive_skips and wall_s.
     """
     run_dir = pathlib.Path(run_dir)
     algorithm = make_algorithm(robot, config)
@@ -169,6 +179,7 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
                         "seed": seed, "episode": episode, "iteration": iteration,
                         "step": episode * config.iterations + iteration,
                         **{k: _json_value(v[s]) for k, v in metrics.items()},
+                        "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
                         "design": _json_value(design[s]),
                         "recon_loss_train": _json_value(stats.recon_loss_train[s]),
                         "recon_loss_val": _json_value(stats.recon_loss_val[s]),
@@ -182,7 +193,8 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
                     out.write(json.dumps(record) + "\n")
                     records.append(record)
                 out.flush()
-                bar.update(episode, iteration, float(np.nanmean(metrics["task_loss"])))
+                finite = metrics["task_loss"][np.isfinite(metrics["task_loss"])]
+                bar.update(episode, iteration, float(finite.mean()) if finite.size else np.nan)
                 _warn_unhealthy(metrics, seeds, episode, iteration)
             if retrains:
                 before = np.asarray(evaluate(state), np.float64)
@@ -200,6 +212,7 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     checkpoints.close()
     if episodes == config.episodes:
         _save_final(run_dir / "final", state)
+        _save_best(run_dir, state, seeds)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
 
 
@@ -233,27 +246,55 @@ def _read_metrics(path: pathlib.Path, lines: int) -> list[dict]:
 
 def _warn_unhealthy(metrics, seeds, episode, iteration):
     for s, seed in enumerate(seeds):
-        bad, escaped = metrics["first_nonfinite_step"][s], metrics["first_escape_step"][s]
-        if bad < 0 and escaped < 0:
+        reason = SKIP_REASONS.get(int(metrics["skipped"][s]))
+        if reason is None:
             continue
-        what = f"blew up (NaN) at step {bad}" if bad >= 0 else f"lost particles at step {escaped}"
-        print(f"warning: seed {seed}, episode {episode}, iteration {iteration}: the simulation "
-              f"{what}; lower the learning rates or the actuator strength", file=sys.stderr)
+        bad, escaped = metrics["first_nonfinite_step"][s], metrics["first_escape_step"][s]
+        what = {"simulation_nonfinite": f"the simulation blew up (NaN) at step {bad}",
+                "particles_escaped": f"particles left the grid at step {escaped}",
+                "loss_nonfinite": "the task loss was not finite",
+                "gradient_nonfinite": "the gradient was not finite"}[reason]
+        where = f"seed {seed}, episode {episode}, iteration {iteration}"
+        in_a_row = int(metrics["consecutive_skips"][s])
+        if in_a_row == 1:
+            print(f"warning: {where}: {what}; iteration skipped (parameters, optimizer and replay "
+                  f"buffer unchanged)", file=sys.stderr)
+        elif in_a_row % MANY_SKIPS == 0:
+            print(f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
+                  f"(latest: {what}); it is stuck at its last good parameters. Lower "
+                  f"loop.learning_rate / loop.design_learning_rate or the actuator strength",
+                  file=sys.stderr)
+
+
+def _parameters(state) -> dict:
+    return {"controller": state.controller, "design": state.design, "observer": state.observer}
 
 
 def _save_final(path: pathlib.Path, state: LoopState):
-    final = {"controller": state.controller, "design": state.design, "observer": state.observer}
     with ocp.StandardCheckpointer() as saver:
-        saver.save(path.absolute(), jax.tree.map(np.asarray, final), force=True)
+        saver.save(path.absolute(), jax.tree.map(np.asarray, _parameters(state)), force=True)
 
 
-def load_final(run_dir, robot: Robot, config: LoopConfig) -> dict:
-    """The final {controller, design, observer} of every seed saved by `run`."""
+def _save_best(run_dir: pathlib.Path, state: LoopState, seeds):
+    _save_final(run_dir / "best", state.best)
+    losses, steps = np.asarray(state.best.task_loss), np.asarray(state.best.step)
+    summary = [{"seed": seed, "task_loss": _json_value(losses[s]), "step": int(steps[s])}
+               for s, seed in enumerate(seeds)]
+    (run_dir / "best.json").write_text(json.dumps(summary, indent=1))
+
+
+def load_final(run_dir, robot: Robot, config: LoopConfig, which: str = "final") -> dict:
+    """The {controller, design, observer} of every seed saved by `run`.
+
+    Args:
+      which: ``"final"`` (after the last iteration) or ``"best"`` (of each seed's best rollout).
+    """
+    if which not in ("final", "best"):
+        raise ValueError(f"which must be 'final' or 'best', got {which!r}")
     algorithm = make_algorithm(robot, config)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
-    template = {"controller": template.controller, "design": template.design,
-                "observer": template.observer}
-    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, jax.tree.map(np.asarray, template))
+    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct,
+                            jax.tree.map(np.asarray, _parameters(template)))
     with ocp.StandardCheckpointer() as loader:
-        return loader.restore((pathlib.Path(run_dir) / "final").absolute(), abstract)
+        return loader.restore((pathlib.Path(run_dir) / which).absolute(), abstract)
 

@@ -68,14 +68,15 @@ def series(group: Group, key: str = "task_loss"):
 
     Returns:
       steps: (T,) global optimization iterations, ascending.
-      values: (n_series, T) with NaN where a seed lacks the step or the value; one row per
-        (run, seed) pair, so equal seed numbers in separate runs count separately.
+      values: (n_series, T) with NaN where a seed lacks the step or the value, or skipped the
+        iteration (a failed rollout measures nothing); one row per (run, seed) pair, so equal
+        seed numbers in separate runs count separately.
     """
     rows: dict[tuple[int, int], dict[int, float]] = {}
     for index, run in enumerate(group.runs):
         for record in run.records:
-            rows.setdefault((index, int(record["seed"])), {})[int(record["step"])] = _value(
-                record, key)
+            value = np.nan if record.get("skipped") else _value(record, key)
+            rows.setdefault((index, int(record["seed"])), {})[int(record["step"])] = value
     steps = np.array(sorted({step for row in rows.values() for step in row}), np.int64)
     column = {int(step): t for t, step in enumerate(steps)}
     values = np.full((len(rows), len(steps)), np.nan)

@@ -208,8 +208,13 @@ def write_report(source, out=None, level: float = 0.9) -> Report:
     summary["notes"] = [f"{_relative(run.path, source)} has no metrics yet; left out"
                         for run in loaded if not run.records] + summary["notes"]
     colors = figures.label_colors([g.label for g in groups])
-    written = [figures.plot_task_loss(curves(groups, "task_loss", level), out / "task_loss.png",
-                                      colors, level)]
+    task_curves = curves(groups, "task_loss", level)
+    written = []
+    if task_curves:
+        written.append(figures.plot_task_loss(task_curves, out / "task_loss.png", colors, level))
+    else:
+        summary["notes"].append("no iteration of any seed finished healthy (all skipped): "
+                                "task_loss.png was not written")
     several = [g for g in groups if len(components(g)) > 1]
     if several:
         component_curves = [c for g in several for key in components(g)

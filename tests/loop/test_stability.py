@@ -1,0 +1,88 @@
+"""A loop that never poisons itself: failed iterations change nothing and are recorded."""
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from litl.loop.algorithm import SKIP_REASONS, make_algorithm
+from litl.loop.run import load_final, run
+from litl.pictures import draw_run
+from litl.robots.robot import Robot
+from litl.sim import Boundary, SimConfig
+from tests.loop.tiny import tiny_config, tiny_robot
+
+
+def _same(a, b):
+    return all(np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
+               for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)))
+
+
+def test_a_blown_up_iteration_updates_nothing_and_says_why():
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer="kmeans"))
+    state = algorithm.init(0)
+    # A design far outside the bounds (and the time step's range) blows the rollout up.
+    blown = state.replace(design=jnp.full_like(state.design, 1e7))
+    after, metrics = jax.jit(algorithm.optimize)(blown)
+    # It blows up: positions run off the grid (then turn non-finite).
+    assert SKIP_REASONS[int(metrics["skipped"])] in ("particles_escaped", "simulation_nonfinite")
+    assert int(metrics["first_nonfinite_step"]) >= 0
+    assert int(after.consecutive_skips) == 1 and int(after.iteration) == 1
+    for field in ("controller", "design", "controller_optimizer", "design_optimizer", "buffer",
+                  "observer", "best"):
+        assert _same(getattr(after, field), getattr(blown, field)), field
+    assert float(after.best.task_loss) == np.inf
+
+
+def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer="kmeans"))
+    state = algorithm.init(0)
+    after, metrics = jax.jit(algorithm.optimize)(state)
+    assert int(metrics["skipped"]) == 0 and int(after.consecutive_skips) == 0
+    assert float(after.best.task_loss) == float(metrics["task_loss"])
+    assert int(after.best.step) == 0
+    assert _same(after.best.controller, state.controller)   # the parameters that were simulated
+    assert not _same(after.controller, state.controller)    # ... then updated
+    assert int(after.buffer.count) == 4
+
+
+def _falling_robot():
+    """The tiny biped over an open floor under strong gravity: it falls out of the grid."""
+    robot = tiny_robot()
+    config = SimConfig(robot.config.grid_shape, robot.config.dx, robot.config.dt, (0.0, -60.0),
+                       boundary=Boundary.box(2, floor="open"))
+    return Robot("falling", robot.layout, config, task=robot.task, steps=robot.steps)
+
+
+def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, capsys):
+    config = tiny_config(observer="kmeans", iterations=3, episodes=2)
+    result = run(_falling_robot(), config, tmp_path, progress=False)
+    err = capsys.readouterr().err
+    assert "particles left the grid" in err and "iteration skipped" in err
+    assert "has failed 5 iterations in a row" in err
+    for record in result.metrics:
+        assert record["skipped"] == "particles_escaped"
+        assert record["design"] == [20.0] * 4                  # never updated
+    assert [r["consecutive_skips"] for r in result.metrics if r["seed"] == 0] == [1, 2, 3, 4, 5, 6]
+    best = json.loads((tmp_path / "best.json").read_text())
+    assert best == [{"seed": 0, "task_loss": None, "step": -1},
+                    {"seed": 1, "task_loss": None, "step": -1}]
+    written = draw_run(_falling_robot(), config, result, tmp_path)
+    err = capsys.readouterr().err
+    assert "pictures: skipping seed 0" in err and "pictures: skipping seed 1" in err
+    assert "no seed has a finite final rollout" in err
+    assert (tmp_path / "robot.png") in written and not (tmp_path / "robot.gif").exists()
+
+
+def test_best_parameters_are_saved_and_pictures_work_with_a_clocked_controller(tmp_path):
+    config = tiny_config(controller_period=0.05, seeds=1, episodes=1, iterations=3)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    best = json.loads((tmp_path / "best.json").read_text())[0]
+    losses = [r["task_loss"] for r in result.metrics]
+    assert best["task_loss"] == min(losses) and best["step"] == int(np.argmin(losses))
+    saved = load_final(tmp_path, tiny_robot(), config, which="best")
+    assert _same(saved["design"], result.state.best.design)
+    written = draw_run(tiny_robot(), config, result, tmp_path)
+    names = {path.name for path in written}
+    assert {"robot.gif", "saliency.gif", "snapshots.png"} <= names
