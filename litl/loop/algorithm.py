@@ -130,7 +130,8 @@ class Algorithm:
 def empty_stats(dtype, max_epochs: int) -> LearningStats:
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
-    return LearningStats(recon_loss_train=nan, recon_loss_val=nan, kl=nan, val_loss=nan,
+    return LearningStats(recon_loss_train=nan, recon_loss_val=nan, recon_explained=nan,
+                         active_units=zero, kl=nan, val_loss=nan,
                          epochs_used=zero, best_epoch=zero,
                          val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
                          steps_per_epoch=zero)

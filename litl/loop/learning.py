@@ -9,7 +9,8 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
   draw is tied to a slot index, so the result depends on the valid entries and their slots, not
   on the buffer's capacity or its invalid slots (up to float rounding of the scale's sum).
 * Epochs: each epoch shuffles the training half again and walks it in minibatches of b drawn
-  without replacement. A last partial minibatch is used, its loss averaged over its real entries
+  without replacement; only the minibatches that hold real entries run, so an epoch's cost
+  follows the number of snapshots in the buffer, not its capacity. A last partial minibatch is used, its loss averaged over its real entries
   only (a mask, not drop-partial: early in a run the buffer may hold fewer than b entries).
   Minibatch slots past the end of the training half are padding: their inputs are zeroed, their
   losses masked out, and a minibatch with no real entry does not step the optimizer.
@@ -35,7 +36,9 @@ import optax
 from flax import struct
 
 from litl.loop.replay import ReplayBuffer
-from litl.models.vae import AutoencoderParams, ConvAutoencoder, losses
+from litl.models.vae import (
+    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, losses,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,6 +101,10 @@ class LearningStats:
       recon_loss_train: mean per-value reconstruction error over the training half (encoder
         means, no sampling noise).
       recon_loss_val: the same over the validation half.
+      recon_explained: 1 - recon_loss_val / (mean squared validation input): the fraction of the
+        held-out fields' energy the reconstructions explain (0: no better than an empty field).
+      active_units: () int32 latent units whose encoder mean varies over the validation half
+        (variance > 0.01, Burda et al. 2016).
       kl: mean KL divergence per snapshot over the validation half.
       val_loss: the early-stopping criterion, recon_loss_val + beta * kl / values per snapshot.
       epochs_used: () int32 epochs run before stopping.
@@ -107,6 +114,8 @@ class LearningStats:
 
     recon_loss_train: jnp.ndarray
     recon_loss_val: jnp.ndarray
+    recon_explained: jnp.ndarray
+    active_units: jnp.ndarray
     kl: jnp.ndarray
     val_loss: jnp.ndarray
     epochs_used: jnp.ndarray
@@ -240,16 +249,25 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         def body(sums, chunk):
             chunk_slots, chunk_mask = chunk
             out = per_snapshot_losses(params, gather(params, buffer, chunk_slots, chunk_mask), None)
+            code = out["code"][:, 0]
+            out = {**out, "code": code, "code_square": code**2}
             return {
-                k: sums[k] + jnp.sum(jnp.where(chunk_mask, out[k], 0)).astype(sums[k].dtype)
+                k: sums[k] + jnp.sum(jnp.where(_broadcast_mask(chunk_mask, out[k]), out[k], 0),
+                                     axis=0).astype(sums[k].dtype)
                 for k in sums
             }, None
 
         zero = jnp.zeros((), params.scale.dtype)
-        sums, _ = jax.lax.scan(
-            body, {"recon": zero, "kl": zero, "total": zero}, _chunks(slots, mask, batch_size)
-        )
+        codes = jnp.zeros((model.latent_dim,), params.scale.dtype)
+        chunk_slots, chunk_mask = _chunks(slots, mask, batch_size)
         n = jnp.sum(mask)
+        # Real slots come first: only the chunks holding them are evaluated, so the cost follows
+        # the buffer's content, not its capacity.
+        sums = jax.lax.fori_loop(
+            0, (n + batch_size - 1) // batch_size,
+            lambda i, sums: body(sums, (chunk_slots[i], chunk_mask[i]))[0],
+            {"recon": zero, "kl": zero, "total": zero, "signal": zero, "code": codes,
+             "code_square": codes})
         return {k: jnp.where(n > 0, v / jnp.maximum(n, 1), jnp.nan) for k, v in sums.items()}
 
     def learn(params: AutoencoderParams, buffer: ReplayBuffer, key):
@@ -274,6 +292,7 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         split = random_split(buffer.count, capacity, split_key)
         # Nothing to validate on with fewer than two entries: keep Θ′ as it is.
         enough = buffer.count >= 2
+        steps_per_epoch = (jnp.sum(split.train_mask) + batch_size - 1) // batch_size
         fitted = fit_scale_masked(params, buffer.fields, jnp.arange(capacity) < buffer.count)
         params = params.replace(scale=jnp.where(enough, fitted.scale, params.scale))
 
@@ -305,10 +324,12 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             noise = _slot_uniform(shuffle_key, split.train)
             order = jnp.argsort(jnp.where(split.train_mask, noise, 2.0))
             slots, mask = _chunks(split.train[order], split.train_mask, batch_size)
-            indices = jnp.arange(slots.shape[0])
-            (network, opt_state, _), _ = jax.lax.scan(
-                train_minibatch, (state.network, state.opt_state, batch_key), (slots, mask, indices)
-            )
+            # The real training slots come first: only their minibatches run (a dynamic count, so
+            # an epoch costs what the buffer holds, not its capacity).
+            (network, opt_state, _) = jax.lax.fori_loop(
+                0, steps_per_epoch,
+                lambda i, carry: train_minibatch(carry, (slots[i], mask[i], i))[0],
+                (state.network, state.opt_state, batch_key))
             means = masked_means(
                 params.replace(network=network), buffer, split.validation, split.validation_mask
             )
@@ -355,12 +376,14 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         stats = LearningStats(
             recon_loss_train=train["recon"],
             recon_loss_val=validation["recon"],
+            recon_explained=explained_variance(validation["recon"], validation["signal"]),
+            active_units=active_units(validation["code"], validation["code_square"]),
             kl=validation["kl"],
             val_loss=validation["total"],
             epochs_used=final.epoch,
             best_epoch=final.best_epoch,
             val_recon_history=final.val_recon_history,
-            steps_per_epoch=(jnp.sum(split.train_mask) + batch_size - 1) // batch_size,
+            steps_per_epoch=steps_per_epoch,
         )
         return best, stats
 

@@ -160,6 +160,8 @@ def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, 
 
     total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
     decoder, divided by the number of values so that its size does not depend on the grid.
+    Also returned: signal, the mean squared normalized input (the error of predicting an empty
+    field, for `explained_variance`), and code, the (B, r) encoder means.
 
     Args:
       fields: (B, *grid_shape, d) raw velocity fields (normalized here by `params.scale`).
@@ -173,7 +175,27 @@ def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, 
         kl = 0.5 * jnp.mean(jnp.sum(jnp.exp(log_variance) + mean**2 - 1.0 - log_variance, axis=-1))
     else:
         kl = jnp.zeros((), recon.dtype)
-    return {"recon": recon, "kl": kl, "total": recon + beta * kl / np.prod(x.shape[1:])}
+    return {"recon": recon, "kl": kl, "total": recon + beta * kl / np.prod(x.shape[1:]),
+            "signal": jnp.mean(x**2), "code": mean}
+
+
+def explained_variance(recon, signal):
+    """1 - recon / signal: the fraction of a field's energy that its reconstruction explains.
+
+    `recon` and `signal` are mean squared reconstruction error and mean squared input over the
+    same values (so a blank prediction scores 0, a perfect one 1). Velocity fields are compared
+    with zero, what an empty grid holds, rather than with their mean.
+    """
+    return 1.0 - recon / signal
+
+
+def active_units(code_mean, code_square_mean, threshold=0.01):
+    """Latent units whose encoder mean varies across the data: Var(E[z_u]) > threshold.
+
+    The measure of Burda et al. (2016); `code_mean` and `code_square_mean` (r,) are the mean and
+    the mean square of the encoder means over the snapshots.
+    """
+    return jnp.sum(code_square_mean - code_mean**2 > threshold).astype(jnp.int32)
 
 
 def per_pixel_reconstruction_loss(model, params: AutoencoderParams, fields):

@@ -207,3 +207,32 @@ def test_bad_arguments(params):
     wrong = ReplayBuffer.empty(4, (16, 16), 2)
     with pytest.raises(ValueError, match=r"model expects \(32, 32, 2\)"):
         learn(params, wrong, jax.random.key(0))
+
+
+def test_explained_variance_and_active_units_have_known_answers():
+    x = jnp.asarray(moving_discs(6))
+    recon = jnp.mean((0.5 * x - x) ** 2)                  # reconstructions at half the size
+    assert float(vae.explained_variance(recon, jnp.mean(x**2))) == pytest.approx(0.75)
+    assert float(vae.explained_variance(jnp.mean(x**2), jnp.mean(x**2))) == 0.0   # blank output
+    codes = jnp.stack([jnp.linspace(-1, 1, 11), jnp.full(11, 3.0), 0.05 * jnp.linspace(-1, 1, 11)], 1)
+    assert int(vae.active_units(codes.mean(0), (codes**2).mean(0))) == 1
+
+
+def test_an_epoch_costs_what_the_buffer_holds_not_its_capacity(params):
+    evaluated = []
+
+    class Counting(vae.ConvAutoencoder):
+        def encode(self, field):
+            jax.debug.callback(lambda n: evaluated.append(int(n)), field.shape[0])
+            return super().encode(field)
+
+    model = Counting(GRID, latent_dim=4, channels=(4, 4, 8, 8, 8))
+    config = LearningConfig(max_epochs=3, batch_size=5, patience=3, learning_rate=1e-2)
+    learn = jax.jit(learning.make_learning_phase(model, config))
+    fields = moving_discs(10)
+    counts = {}
+    for capacity in (10, 400):
+        evaluated.clear()
+        jax.block_until_ready(learn(params, buffer_of(fields, capacity), jax.random.key(0)))
+        counts[capacity] = sum(evaluated)
+    assert counts[400] == counts[10] > 0
