@@ -57,6 +57,8 @@ class LearningConf:
     patience: int = 5              # q
     learning_rate: float = 1e-3
     beta: float = 1.0
+    max_steps: Optional[int] = None       # SGD-step budget of a phase (null: none)
+    patience_steps: Optional[int] = None  # early stopping in SGD steps instead of epochs
 
 
 @dataclass

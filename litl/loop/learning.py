@@ -14,7 +14,8 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
   only (a mask, not drop-partial: early in a run the buffer may hold fewer than b entries).
   Minibatch slots past the end of the training half are padding: their inputs are zeroed, their
   losses masked out, and a minibatch with no real entry does not step the optimizer.
-* Early stopping: after every epoch the validation loss is the "total" VAE loss (reconstruction +
+* Early stopping (`patience` in epochs, or `patience_steps` in SGD steps, and an optional
+  `max_steps` budget): after every epoch the validation loss is the "total" VAE loss (reconstruction +
   β·KL per value, the objective being trained) with the encoder means (no sampling noise). The
   parameters of the epoch with the lowest validation loss so far are kept; training stops when
   `patience` epochs in a row bring no strictly lower loss, or after `max_epochs`. The initial Θ′ is
@@ -51,6 +52,11 @@ class LearningConfig:
       patience: q, epochs without a lower validation loss before stopping.
       learning_rate: Adam step size (0 is allowed: nothing is learned).
       beta: weight of the KL term in the VAE loss.
+      max_steps: if set, also stop once this many SGD steps (minibatches) were taken.
+      patience_steps: if set, early stopping counts SGD steps instead of epochs: stop once the
+        epochs since the best validation loss hold at least this many steps. An epoch is one
+        minibatch while the buffer is small and many later, so a patience in epochs stops far too
+        early at first (one Adam step) and far too late at the end.
     """
 
     max_epochs: int = 100
@@ -58,10 +64,14 @@ class LearningConfig:
     patience: int = 5
     learning_rate: float = 1e-3
     beta: float = 1.0
+    max_steps: int | None = None
+    patience_steps: int | None = None
 
     def __post_init__(self):
-        for name in ("max_epochs", "batch_size", "patience"):
+        for name in ("max_epochs", "batch_size", "patience", "max_steps", "patience_steps"):
             value = getattr(self, name)
+            if value is None and name in ("max_steps", "patience_steps"):
+                continue
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
         for name in ("learning_rate", "beta"):
@@ -351,11 +361,14 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             )
 
         def keep_going(state: _LearningState):
-            return (
-                enough
-                & (state.epoch < config.max_epochs)
-                & (state.stale_epochs < config.patience)
-            )
+            going = enough & (state.epoch < config.max_epochs)
+            if config.patience_steps is None:
+                going &= state.stale_epochs < config.patience
+            else:
+                going &= state.stale_epochs * steps_per_epoch < config.patience_steps
+            if config.max_steps is not None:
+                going &= state.epoch * steps_per_epoch < config.max_steps
+            return going
 
         zero = jnp.zeros((), jnp.int32)
         initial = _LearningState(

@@ -236,3 +236,17 @@ def test_an_epoch_costs_what_the_buffer_holds_not_its_capacity(params):
         jax.block_until_ready(learn(params, buffer_of(fields, capacity), jax.random.key(0)))
         counts[capacity] = sum(evaluated)
     assert counts[400] == counts[10] > 0
+
+
+def test_patience_and_budget_in_sgd_steps(learn, params):
+    buffer = buffer_of(moving_discs(20))           # 10 training entries: 2 minibatches of 5
+    config = LearningConfig(max_epochs=50, batch_size=5, patience=1, patience_steps=6,
+                            max_steps=14, learning_rate=1e-2)
+    _, stats = jax.jit(learning.make_learning_phase(MODEL, config))(params, buffer, jax.random.key(0))
+    epochs, best = int(stats.epochs_used), int(stats.best_epoch)
+    assert int(stats.steps_per_epoch) == 2
+    # Stops at the 14-step budget (7 epochs) or 3 epochs (6 steps) after its best one.
+    assert epochs == 7 or epochs - best == 3
+    assert epochs >= 3   # a patience of one epoch would have allowed stopping after epoch 2
+    with pytest.raises(ValueError, match="patience_steps must be a positive int"):
+        LearningConfig(patience_steps=0)
