@@ -75,7 +75,7 @@ def series(group: Group, key: str = "task_loss"):
     rows: dict[tuple[int, int], dict[int, float]] = {}
     for index, run in enumerate(group.runs):
         for record in run.records:
-            value = np.nan if record.get("skipped") else _value(record, key)
+            value = np.nan if isinstance(record.get("skipped"), str) else _value(record, key)
             rows.setdefault((index, int(record["seed"])), {})[int(record["step"])] = value
     steps = np.array(sorted({step for row in rows.values() for step in row}), np.int64)
     column = {int(step): t for t, step in enumerate(steps)}

@@ -85,4 +85,4 @@ def test_best_parameters_are_saved_and_pictures_work_with_a_clocked_controller(t
     assert _same(saved["design"], result.state.best.design)
     written = draw_run(tiny_robot(), config, result, tmp_path)
     names = {path.name for path in written}
-    assert {"robot.gif", "saliency.gif", "snapshots.png"} <= names
+    assert {"robot.gif", "saliency.gif", "snapshots.png", "task_loss.png"} <= names
