@@ -80,6 +80,7 @@ def loop_config(settings: Settings) -> LoopConfig:
         episodes=loop.episodes, iterations=loop.iterations, seeds=settings.seeds,
         seed=settings.seed, steps=settings.sim.steps, observer=observer.kind,
         latent_dim=observer.latent_dim, channels=tuple(observer.channels),
+        activation=observer.activation,
         clusters=observer.clusters, controller_widths=tuple(controller.widths),
         controller_period=controller.period, learning_rate=controller.learning_rate,
         feature_gradient=controller.feature_gradient,

@@ -33,6 +33,7 @@ class ObserverConf:
     kind: str = "vae"              # vae | ae | kmeans
     latent_dim: int = 8            # r
     channels: List[int] = field(default_factory=lambda: [8, 16, 32, 32, 64])
+    activation: str = "elu"        # elu | relu (the paper's)
     clusters: int = 6              # k of the k-means baseline
 
 

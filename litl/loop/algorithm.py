@@ -151,7 +151,7 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
 
     if config.learned_observer:
         model = vae.ConvAutoencoder(grid_shape, latent_dim=config.latent_dim,
-                                    channels=config.channels,
+                                    channels=config.channels, activation=config.activation,
                                     variational=config.observer == "vae")
         encode = vae.make_observer(model)
         n_features = config.latent_dim

@@ -29,6 +29,7 @@ class LoopConfig:
       observer: ``"vae"`` (the method), ``"ae"`` (plain autoencoder) or ``"kmeans"`` (baseline).
       latent_dim: r, latent variables of the (V)AE.
       channels: channel widths of the five encoder convolutions.
+      activation: the (V)AE's activation, ``"elu"`` or ``"relu"`` (the paper's).
       clusters: k, clusters of the k-means observer.
       controller_widths: hidden layers of the MLP controller.
       controller_period: if set, the controller also sees (sin, cos) of a clock of this period (s).
@@ -62,6 +63,7 @@ class LoopConfig:
     observer: str = "vae"
     latent_dim: int = 8
     channels: tuple[int, ...] = (8, 16, 32, 32, 64)
+    activation: str = "elu"
     clusters: int = 6
     controller_widths: tuple[int, ...] = (64, 64)
     controller_period: float | None = None
@@ -94,6 +96,8 @@ class LoopConfig:
             raise LoopConfigError(f"loop.seed must be an integer >= 0, got {self.seed!r}")
         if self.observer not in OBSERVERS:
             raise LoopConfigError(f"unknown observer {self.observer!r}; choose one of {OBSERVERS}")
+        if self.activation not in ("elu", "relu"):
+            raise LoopConfigError(f"activation must be 'elu' or 'relu', got {self.activation!r}")
         if len(self.channels) != 5 or any(c < 1 for c in self.channels):
             raise LoopConfigError(f"loop.channels needs 5 positive widths, got {self.channels}")
         if any(w < 1 for w in self.controller_widths):

@@ -95,6 +95,8 @@ def test_bad_settings():
         vae.ConvAutoencoder((32, 32), channels=(8, 8))
     with pytest.raises(ValueError, match="latent_dim"):
         vae.ConvAutoencoder((32, 32), latent_dim=0)
+    with pytest.raises(ValueError, match="unknown activation 'tanh'"):
+        vae.ConvAutoencoder((32, 32), activation="tanh")
 
 
 def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
