@@ -38,7 +38,7 @@ from flax import struct
 
 from litl.loop.replay import ReplayBuffer
 from litl.models.vae import (
-    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, losses,
+    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, loss_terms,
 )
 
 
@@ -244,9 +244,9 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
     def per_snapshot_losses(params, fields, key):
         """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.losses` each)."""
         if key is None:
-            return jax.vmap(lambda f: losses(model, params, f[None], None, beta))(fields)
+            return jax.vmap(lambda f: loss_terms(model, params, f[None], None, beta))(fields)
         keys = jax.random.split(key, fields.shape[0])
-        return jax.vmap(lambda f, k: losses(model, params, f[None], k, beta))(fields, keys)
+        return jax.vmap(lambda f, k: loss_terms(model, params, f[None], k, beta))(fields, keys)
 
     def gather(params, buffer, slots, mask):
         # Padding slots point at arbitrary data; zero them so nothing non-finite enters the net.

@@ -169,18 +169,11 @@ def make_observer(model: ConvAutoencoder):
     return observe
 
 
-def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
-    """Mean per-pixel squared reconstruction error, KL to N(0, I) per sample, and their total.
+def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
+    """`losses` plus what held-out evaluation needs from the same forward pass.
 
-    total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
-    decoder, divided by the number of values so that its size does not depend on the grid.
-    Also returned: signal, the mean squared normalized input (the error of predicting an empty
-    field, for `explained_variance`), and code, the (B, r) encoder means.
-
-    Args:
-      fields: (B, *grid_shape, d) raw velocity fields (normalized here by `params.scale`).
-      key: sampling key for the VAE (None: use the means, e.g. for validation).
-      beta: weight of the KL term.
+    Returns the dict of `losses` and: signal, the mean squared normalized input (the error of
+    predicting an empty field, for `explained_variance`); code, the (B, r) encoder means.
     """
     x = fields / params.scale
     reconstruction, mean, log_variance = model.apply(params.network, x, key)
@@ -191,6 +184,21 @@ def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, 
         kl = jnp.zeros((), recon.dtype)
     return {"recon": recon, "kl": kl, "total": recon + beta * kl / np.prod(x.shape[1:]),
             "signal": jnp.mean(x**2), "code": mean}
+
+
+def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
+    """Mean per-pixel squared reconstruction error, KL to N(0, I) per sample, and their total.
+
+    total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
+    decoder, divided by the number of values so that its size does not depend on the grid.
+
+    Args:
+      fields: (B, *grid_shape, d) raw velocity fields (normalized here by `params.scale`).
+      key: sampling key for the VAE (None: use the means, e.g. for validation).
+      beta: weight of the KL term.
+    """
+    terms = loss_terms(model, params, fields, key, beta)
+    return {name: terms[name] for name in ("recon", "kl", "total")}
 
 
 def explained_variance(recon, signal):
