@@ -37,7 +37,11 @@ def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: b
     run_dir = pathlib.Path(run_dir)
     written = []
     algorithm = make_algorithm(robot, config)
-    chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
+    # Only the animation needs a rollout; without it the pictures use seed 0 (whose parameters
+    # are finite: failed iterations never update them).
+    chosen, recording = 0, None
+    if animation:
+        chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
     state = seed_slice(result.state, chosen if chosen is not None else 0)
     if pictures:
         written += write_report(run_dir).files
@@ -46,7 +50,8 @@ def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: b
         plt.close(figure)
         written.append(run_dir / "robot.png")
         if chosen is not None:
-            written += _representation(robot, algorithm, state, run_dir, stride=config.snapshot_stride)
+            written += _representation(robot, algorithm, state, run_dir,
+                                       stride=config.snapshot_stride)
     if animation and recording is not None:
         written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
     return written
