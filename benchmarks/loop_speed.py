@@ -1,21 +1,25 @@
-"""Cost of Algorithm 1's two phases on the biped: one optimization iteration, one learning phase.
+"""Cost of one episode of Algorithm 1 on the biped: its optimization phase against its learning phase.
 
-    python benchmarks/loop_speed.py                 # table: 1 seed and 10 vmapped seeds
+    python benchmarks/loop_speed.py                          # demo and paper resolution, 1 and 10 seeds
     python benchmarks/loop_speed.py --json
     python benchmarks/loop_speed.py --seeds 1 --dx 0.03125 --steps 100 --repeats 2   # smoke
 
-For each seed count S (each in its own process, so peak memory is that of S alone), with the VAE
-observer and the default `LoopConfig` (latent 8, channels (8, 16, 32, 32, 64), replay capacity
-500, snapshot every 20 steps):
+For each resolution and seed count S (each in its own process, so peak memory is that of S alone),
+with the VAE observer and the default `LoopConfig` (10 iterations per episode; the learning phase
+of `LearningConfig`: minibatch 8, Adam 3e-3, at most 400 SGD steps, patience 100 steps; a 0.5
+window around the robot), all S seeds vmapped:
 
-  optimize_s        median wall time of one optimization iteration: a closed-loop rollout with the
-                    encoder in the loop, backpropagation to controller and design, Adam, projection,
-                    snapshots into the buffer — for all S seeds at once
-  optimize_compile_s its lowering + compilation
-  learn_epoch_s     median time of one learning epoch over a full buffer (the learning phase
-                    is run with max_epochs = patience + 1 = 2 epochs and divided by 2)
-  learn_compile_s   its lowering + compilation
-  peak_rss_mb       peak resident memory of the process
+  optimize_s         median wall time of one optimization iteration (closed-loop rollout with the
+                     encoder in the loop, backpropagation to controller and design, Adam,
+                     projection, snapshots into the buffer)
+  episode_opt_s      iterations per episode x optimize_s: the optimization phase of an episode
+  learn_s            median wall time of one whole learning phase (split, epochs with early
+                     stopping, statistics, target update) on the replay buffer the optimization
+                     filled (full: 500 snapshots), for all S seeds
+  learn_steps        SGD steps that phase took (the most over seeds)
+  learn_share        learn_s / episode_opt_s (the issue's target: <= 1)
+  *_compile_s        lowering + compilation of each
+  peak_rss_mb        peak resident memory of the process
 """
 
 from __future__ import annotations
@@ -29,54 +33,69 @@ import subprocess
 import sys
 import time
 
+RESOLUTIONS = {"demo": 1 / 64, "paper": 1 / 128}
 
-def measure(seeds: int, repeats: int, dx: float | None, steps: int | None) -> dict:
+
+def _timed(function, *args):
+    start = time.perf_counter()
+    out = function(*args)
+    import jax
+    jax.block_until_ready(out)
+    return out, time.perf_counter() - start
+
+
+def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
     import jax
 
     import litl.robots
-    from litl.loop import LearningConfig, LoopConfig, make_algorithm, stack_seeds
+    from litl.loop import LoopConfig, make_algorithm, stack_seeds
 
     robot = litl.robots.get("biped", dx=dx)
-    config = LoopConfig(seeds=seeds, steps=steps, snapshot_stride=20, replay_capacity=500,
-                        learning=LearningConfig(max_epochs=2, patience=1, learning_rate=0.0))
+    config = LoopConfig(seeds=seeds, steps=steps, snapshot_stride=20, replay_capacity=500)
     algorithm = make_algorithm(robot, config)
     state = stack_seeds([algorithm.init(s) for s in range(seeds)])
-    optimize, learn = jax.vmap(algorithm.optimize), jax.vmap(algorithm.learn)
+    state, _ = jax.jit(jax.vmap(algorithm.bootstrap))(state)
 
     start = time.perf_counter()
-    optimize = jax.jit(optimize).lower(state).compile()
+    optimize = jax.jit(jax.vmap(algorithm.optimize)).lower(state).compile()
     optimize_compile = time.perf_counter() - start
-    times = []
     # Fill the buffer while timing: 500 / (steps / 20) iterations fill it completely.
     per_rollout = (config.steps or robot.steps) // config.snapshot_stride
     fill = -(-config.replay_capacity // per_rollout)
+    times = []
     for _ in range(max(repeats, fill)):
-        start = time.perf_counter()
-        state, metrics = jax.block_until_ready(optimize(state))
-        times.append(time.perf_counter() - start)
+        (state, _), seconds = _timed(optimize, state)
+        times.append(seconds)
     optimize_s = statistics.median(times[:repeats])
 
     start = time.perf_counter()
-    learn = jax.jit(learn).lower(state).compile()
+    learn = jax.jit(jax.vmap(algorithm.learn)).lower(state).compile()
     learn_compile = time.perf_counter() - start
-    epochs = []
+    phases = []
     for _ in range(repeats):
-        start = time.perf_counter()
-        _, stats = jax.block_until_ready(learn(state))
-        epochs.append((time.perf_counter() - start) / max(int(stats.epochs_used.max()), 1))
+        (_, stats), seconds = _timed(learn, state)
+        phases.append(seconds)
+    learn_s = statistics.median(phases)
+    learn_steps = int((stats.epochs_used * stats.steps_per_epoch).max())
+    episode_opt_s = config.iterations * optimize_s
     return {
         "seeds": seeds,
+        "dx": dx,
         "particles": robot.layout.n_particles,
         "grid": list(robot.config.grid_shape),
+        "window": list(algorithm.model.grid_shape),
         "steps": config.steps or robot.steps,
         "buffer": int(state.buffer.count.min()),
         "optimize_s": round(optimize_s, 3),
         "optimize_compile_s": round(optimize_compile, 1),
-        "learn_epoch_s": round(statistics.median(epochs), 3),
+        "episode_opt_s": round(episode_opt_s, 2),
+        "learn_s": round(learn_s, 2),
+        "learn_steps": learn_steps,
+        "learn_share": round(learn_s / episode_opt_s, 2),
         "learn_compile_s": round(learn_compile, 1),
+        "recon_explained": [round(float(v), 3) for v in stats.recon_explained],
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
         "device": jax.devices()[0].platform,
-        "observer": config.observer,
     }
 
 
@@ -86,32 +105,38 @@ def main(argv=None):
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 10])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--dx", type=float, default=None, help="biped resolution (default 1/128)")
-    parser.add_argument("--steps", type=int, default=None, help="rollout steps (default 1000)")
+    parser.add_argument("--dx", type=float, nargs="+", default=list(RESOLUTIONS.values()),
+                        help="biped resolutions (default: demo 1/64 and paper 1/128)")
+    parser.add_argument("--steps", type=int, default=None, help="rollout steps (default: 1 s)")
     parser.add_argument("--one", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    if args.repeats < 1 or min(args.seeds) < 1:
-        parser.error("--repeats and --seeds must be positive")
+    if args.repeats < 1 or min(args.seeds) < 1 or min(args.dx) <= 0:
+        parser.error("--repeats, --seeds and --dx must be positive")
     if args.one:
-        print(json.dumps(measure(args.one, args.repeats, args.dx, args.steps)))
+        print(json.dumps(measure(args.one, args.repeats, args.dx[0], args.steps)))
         return
     results = []
-    for seeds in args.seeds:
-        command = [sys.executable, __file__, "--one", str(seeds), "--repeats", str(args.repeats)]
-        command += ["--dx", str(args.dx)] if args.dx else []
-        command += ["--steps", str(args.steps)] if args.steps else []
-        done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
-        if done.returncode:
-            raise SystemExit(f"{seeds} seeds failed:\n{done.stderr[-4000:]}")
-        results.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    for dx in args.dx:
+        for seeds in args.seeds:
+            command = [sys.executable, __file__, "--one", str(seeds), "--repeats",
+                       str(args.repeats), "--dx", str(dx)]
+            command += ["--steps", str(args.steps)] if args.steps else []
+            done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
+            if done.returncode:
+                raise SystemExit(f"dx {dx}, {seeds} seeds failed:\n{done.stderr[-4000:]}")
+            results.append(json.loads(done.stdout.strip().splitlines()[-1]))
+            if not args.json:
+                r = results[-1]
+                if len(results) == 1:
+                    print(f"{'dx':>7s} {'seeds':>5s} {'optimize_s':>10s} {'episode_s':>9s} "
+                          f"{'learn_s':>8s} {'steps':>5s} {'share':>5s} {'compile_s':>13s} "
+                          f"{'peak_MB':>8s}")
+                print(f"1/{round(1 / r['dx']):<5d} {r['seeds']:5d} {r['optimize_s']:10.2f} "
+                      f"{r['episode_opt_s']:9.2f} {r['learn_s']:8.2f} {r['learn_steps']:5d} "
+                      f"{r['learn_share']:5.2f} {r['optimize_compile_s']:6.1f}/"
+                      f"{r['learn_compile_s']:<6.1f} {r['peak_rss_mb']:8d}", flush=True)
     if args.json:
         print(json.dumps(results))
-        return
-    print(f"{'seeds':>5s} {'optimize_s':>10s} {'compile_s':>9s} {'epoch_s':>8s} {'compile_s':>9s} "
-          f"{'peak_MB':>8s}")
-    for r in results:
-        print(f"{r['seeds']:5d} {r['optimize_s']:10.2f} {r['optimize_compile_s']:9.1f} "
-              f"{r['learn_epoch_s']:8.2f} {r['learn_compile_s']:9.1f} {r['peak_rss_mb']:8d}")
 
 
 if __name__ == "__main__":

@@ -79,9 +79,11 @@ def loop_config(settings: Settings) -> LoopConfig:
     return LoopConfig(
         episodes=loop.episodes, iterations=loop.iterations, seeds=settings.seeds,
         seed=settings.seed, steps=settings.sim.steps, observer=observer.kind,
-        latent_dim=observer.latent_dim, channels=tuple(observer.channels),
+        latent_dim=observer.latent_dim, window=observer.window,
+        channels=tuple(observer.channels),
         activation=observer.activation,
-        clusters=observer.clusters, controller_widths=tuple(controller.widths),
+        clusters=observer.clusters, controller=controller.kind,
+        controller_omega=controller.omega, controller_widths=tuple(controller.widths),
         controller_period=controller.period, learning_rate=controller.learning_rate,
         feature_gradient=controller.feature_gradient,
         design_learning_rate=loop.design_learning_rate, gradient_clip=loop.gradient_clip,

@@ -80,6 +80,8 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
 
 def _representation(robot, algorithm, state, run_dir: pathlib.Path,
                     stride: int) -> list[pathlib.Path]:
+    if algorithm.n_features == 0:
+        return []  # open loop: no observer to draw
     if algorithm.model is None:
         figure = plt.figure(figsize=(6, 5))
         ax = figure.add_subplot(111, projection="3d" if robot.dim == 3 else None)

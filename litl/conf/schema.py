@@ -30,8 +30,9 @@ class TaskConf:
 
 @dataclass
 class ObserverConf:
-    kind: str = "vae"              # vae | ae | kmeans
+    kind: str = "vae"              # vae | ae | kmeans | none (open loop)
     latent_dim: int = 8            # r
+    window: Optional[float] = 0.5  # side of the grid window around the robot (null: whole grid)
     channels: List[int] = field(default_factory=lambda: [8, 16, 32, 32, 64])
     activation: str = "elu"        # elu | relu (the paper's)
     clusters: int = 6              # k of the k-means baseline
@@ -39,6 +40,8 @@ class ObserverConf:
 
 @dataclass
 class ControllerConf:
+    kind: str = "mlp"              # mlp | sinusoid (open-loop baseline; with observer none)
+    omega: float = 30.0            # rad/s of the sinusoid controller
     widths: List[int] = field(default_factory=lambda: [64, 64])
     period: Optional[float] = None  # seconds; adds a (sin, cos) clock input when set
     learning_rate: float = 0.01
@@ -54,18 +57,18 @@ class SimConf:
 @dataclass
 class LearningConf:
     max_epochs: int = 100          # N
-    batch_size: int = 32           # b
-    patience: int = 5              # q
-    learning_rate: float = 1e-3
+    batch_size: int = 8            # b
+    patience: int = 5              # q (epochs; used when patience_steps is null)
+    learning_rate: float = 3e-3
     beta: float = 1.0
-    max_steps: Optional[int] = None       # SGD-step budget of a phase (null: none)
-    patience_steps: Optional[int] = None  # early stopping in SGD steps instead of epochs
+    max_steps: Optional[int] = 400        # SGD-step budget of a phase (null: none)
+    patience_steps: Optional[int] = 100   # early stopping in SGD steps instead of epochs
 
 
 @dataclass
 class LoopConf:
-    episodes: int = 4              # K
-    iterations: int = 5            # M
+    episodes: int = 10             # K
+    iterations: int = 10           # M
     design_learning_rate: float = 0.5
     gradient_clip: Optional[float] = 1.0   # global-norm clip of θ's and φ's gradients (null: off)
     snapshot_stride: int = 20

@@ -35,8 +35,11 @@ from litl.loop.replay import ReplayBuffer, add, replace_with
 from litl.models import vae
 from litl.models.controller import MLPController
 from litl.models.kmeans import fit_kmeans, kmeans_features
+from litl.models.open_loop import SinusoidController
 from litl.robots.robot import Robot
+from litl.models.window import Window
 from litl.sim import make_rollout
+from litl.sim.rollout import centroid
 
 
 # Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
@@ -70,7 +73,7 @@ class LoopState:
       design: φ, (R,) Young's modulus of each design region.
       controller_optimizer: Adam state of θ.
       design_optimizer: Adam state of φ.
-      observer: Θ, `AutoencoderParams` (vae/ae) or `KMeansObserver` (kmeans).
+      observer: Θ, `AutoencoderParams` (vae/ae), `KMeansObserver` (kmeans) or a () zero (none).
       observer_optimizer: Adam state of Θ's network for the simultaneous ablation (else empty).
       buffer: the replay buffer of grid velocity snapshots.
       key: (2,) uint32 raw PRNG key data (plain arrays checkpoint and compare bitwise).
@@ -124,14 +127,15 @@ class Algorithm:
     # the observer network (None for k-means) and the controller module.
     policy: Callable
     model: Any
-    controller: MLPController
+    controller: MLPController | SinusoidController
 
 
-def empty_stats(dtype, max_epochs: int) -> LearningStats:
+def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
     return LearningStats(recon_loss_train=nan, recon_loss_val=nan, recon_explained=nan,
-                         active_units=zero, kl=nan, val_loss=nan,
+                         active_units=zero, velocity_r2=jnp.full((dim,), jnp.nan, dtype),
+                         kl=nan, val_loss=nan,
                          epochs_used=zero, best_epoch=zero,
                          val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
                          steps_per_epoch=zero)
@@ -149,15 +153,22 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
     grid_shape, dim = sim_config.grid_shape, sim_config.dim
     task_loss = robot.task_loss()
 
+    # Learned observers see a window that follows the robot (the whole grid with window None).
+    window = Window.around(grid_shape, sim_config.dx,
+                           config.window if config.learned_observer else None)
     if config.learned_observer:
-        model = vae.ConvAutoencoder(grid_shape, latent_dim=config.latent_dim,
+        model = vae.ConvAutoencoder(window.shape, latent_dim=config.latent_dim,
                                     channels=config.channels, activation=config.activation,
                                     variational=config.observer == "vae")
-        encode = vae.make_observer(model)
+        encode = vae.make_observer(model, window)
         n_features = config.latent_dim
         learning_phase = make_learning_phase(model, config.learning)
         observer_adam = optax.adam(config.learning.learning_rate)
         observer_step = vae.make_train_step(model, observer_adam, config.learning.beta)
+    elif config.observer == "none":
+        model = None
+        encode = lambda observer, state, grid_velocity: jnp.zeros((0,), dtype)
+        n_features = 0
     else:
         model = None
         if config.clusters > robot.layout.n_particles:
@@ -165,8 +176,11 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
                              f"{robot.layout.n_particles} particles")
         encode = kmeans_features
         n_features = 2 * config.clusters * dim
-    controller = MLPController(robot.n_actuators, config.controller_widths,
-                               period=config.controller_period)
+    if config.controller == "sinusoid":
+        controller = SinusoidController(robot.n_actuators, omega=config.controller_omega)
+    else:
+        controller = MLPController(robot.n_actuators, config.controller_widths,
+                                   period=config.controller_period)
     clip = [optax.clip_by_global_norm(config.gradient_clip)] if config.gradient_clip else []
     controller_adam = optax.chain(*clip, optax.adam(config.learning_rate))
     design_adam = optax.chain(*clip, optax.adam(config.design_learning_rate))
@@ -180,12 +194,18 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         return controller.apply(controller_params, features.astype(dtype), time=time)
 
     rollout = make_rollout(sim_config, scene.body, policy, steps, snapshot_stride=stride,
-                           observe=lambda state: ())
+                           observe=centroid if config.learned_observer else lambda state: ())
 
     def simulate(controller_params, design, observer):
         final, trajectory = rollout((controller_params, observer), robot.design(design),
                                     initial_state)
         total, components = task_loss(initial_state, final)
+        if config.learned_observer and not window.whole_grid:
+            # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
+            # with the state after that step: crop both around that state's centroid.
+            centres = trajectory.observations[stride - 1::stride][:trajectory.snapshots.shape[0]]
+            trajectory = trajectory.replace(
+                snapshots=jax.vmap(window.crop)(trajectory.snapshots, centres))
         return total, (components, trajectory)
 
     def init(seed: int) -> LoopState:
@@ -196,6 +216,8 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         if config.learned_observer:
             observer = vae.init_autoencoder(model, observer_key, dtype)
             observer_optimizer = observer_adam.init(observer.network)
+        elif config.observer == "none":
+            observer, observer_optimizer = jnp.zeros((), dtype), ()  # a placeholder leaf
         else:
             observer = fit_kmeans(initial_state.x, config.clusters, seed=seed)
             observer_optimizer = ()
@@ -207,9 +229,9 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
             design_optimizer=design_adam.init(design),
             observer=observer,
             observer_optimizer=observer_optimizer,
-            buffer=ReplayBuffer.empty(config.replay_capacity, grid_shape, dim, dtype),
+            buffer=ReplayBuffer.empty(config.replay_capacity, window.shape, dim, dtype),
             key=jax.random.key_data(key),
-            stats=empty_stats(dtype, config.learning.max_epochs),
+            stats=empty_stats(dtype, config.learning.max_epochs, dim),
             best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
                       controller=controller_params, design=design, observer=observer),
             iteration=jnp.zeros((), jnp.int32),

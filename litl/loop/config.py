@@ -7,7 +7,8 @@ import math
 
 from litl.loop.learning import LearningConfig
 
-OBSERVERS = ("vae", "ae", "kmeans")
+OBSERVERS = ("vae", "ae", "kmeans", "none")
+CONTROLLERS = ("mlp", "sinusoid")
 DTYPES = ("float32", "float64")
 FEATURE_GRADIENTS = ("full", "stop")
 
@@ -26,12 +27,19 @@ class LoopConfig:
       seeds: S, independent runs batched with `jax.vmap` (the paper uses 10).
       seed: base seed; the runs use seed, seed + 1, ..., seed + S - 1.
       steps: simulation steps per rollout (None: the robot's own episode length).
-      observer: ``"vae"`` (the method), ``"ae"`` (plain autoencoder) or ``"kmeans"`` (baseline).
+      observer: ``"vae"`` (the method), ``"ae"`` (plain autoencoder), ``"kmeans"`` (baseline) or
+        ``"none"`` (no features: open-loop control, e.g. by an MLP of the clock or sinusoids).
       latent_dim: r, latent variables of the (V)AE.
+      window: side (domain units) of the window of the grid that a (V)AE sees, centred on the
+        robot's particle centroid and rounded up to a multiple of 32 nodes (`litl.models.window`);
+        None: the whole grid, as in the paper. The replay buffer stores these windows.
       channels: channel widths of the five encoder convolutions.
       activation: the (V)AE's activation, ``"elu"`` or ``"relu"`` (the paper's).
       clusters: k, clusters of the k-means observer.
+      controller: ``"mlp"`` (closed loop: an MLP of the observer's features) or ``"sinusoid"``
+        (the open-loop baseline `litl.models.open_loop.SinusoidController`; needs observer none).
       controller_widths: hidden layers of the MLP controller.
+      controller_omega: angular frequency (rad/s) of the sinusoid controller.
       controller_period: if set, the controller also sees (sin, cos) of a clock of this period (s).
       feature_gradient: ``"stop"`` treats the observer's features as constants in the task-loss
         gradient (the gradient reaches θ through the actuation's effect on the motion only);
@@ -62,10 +70,13 @@ class LoopConfig:
     steps: int | None = None
     observer: str = "vae"
     latent_dim: int = 8
+    window: float | None = 0.5
     channels: tuple[int, ...] = (8, 16, 32, 32, 64)
     activation: str = "elu"
     clusters: int = 6
+    controller: str = "mlp"
     controller_widths: tuple[int, ...] = (64, 64)
+    controller_omega: float = 30.0
     controller_period: float | None = None
     feature_gradient: str = "stop"
     learning_rate: float = 0.01
@@ -96,6 +107,23 @@ class LoopConfig:
             raise LoopConfigError(f"loop.seed must be an integer >= 0, got {self.seed!r}")
         if self.observer not in OBSERVERS:
             raise LoopConfigError(f"unknown observer {self.observer!r}; choose one of {OBSERVERS}")
+        if self.window is not None and not (
+                isinstance(self.window, (int, float)) and not isinstance(self.window, bool)
+                and math.isfinite(self.window) and self.window > 0):
+            raise LoopConfigError(f"observer window must be a positive length (domain units) or "
+                                  f"None for the whole grid, got {self.window!r}")
+        if self.controller not in CONTROLLERS:
+            raise LoopConfigError(f"unknown controller {self.controller!r}; choose one of "
+                                  f"{CONTROLLERS}")
+        if self.controller == "sinusoid" and self.observer != "none":
+            raise LoopConfigError(
+                f"the sinusoid controller is open loop and reads no observer, but observer is "
+                f"{self.observer!r}: set observer none (controller=sinusoid on the command line "
+                f"does so)")
+        if not (isinstance(self.controller_omega, (int, float)) and math.isfinite(
+                self.controller_omega) and self.controller_omega > 0):
+            raise LoopConfigError(f"controller omega must be a positive angular frequency "
+                                  f"(rad/s), got {self.controller_omega!r}")
         if self.activation not in ("elu", "relu"):
             raise LoopConfigError(f"activation must be 'elu' or 'relu', got {self.activation!r}")
         if len(self.channels) != 5 or any(c < 1 for c in self.channels):

@@ -60,12 +60,12 @@ class LearningConfig:
     """
 
     max_epochs: int = 100
-    batch_size: int = 32
+    batch_size: int = 8
     patience: int = 5
-    learning_rate: float = 1e-3
+    learning_rate: float = 3e-3
     beta: float = 1.0
-    max_steps: int | None = None
-    patience_steps: int | None = None
+    max_steps: int | None = 400
+    patience_steps: int | None = 100
 
     def __post_init__(self):
         for name in ("max_epochs", "batch_size", "patience", "max_steps", "patience_steps"):
@@ -115,6 +115,9 @@ class LearningStats:
         held-out fields' energy the reconstructions explain (0: no better than an empty field).
       active_units: () int32 latent units whose encoder mean varies over the validation half
         (variance > 0.01, Burda et al. 2016).
+      velocity_r2: (d,) how well the codes tell the robot's velocity: R² over the validation half
+        of a linear (least-squares) fit on the training half from [code, 1] to each component
+        of the snapshot's mean velocity over occupied nodes.
       kl: mean KL divergence per snapshot over the validation half.
       val_loss: the early-stopping criterion, recon_loss_val + beta * kl / values per snapshot.
       epochs_used: () int32 epochs run before stopping.
@@ -126,6 +129,7 @@ class LearningStats:
     recon_loss_val: jnp.ndarray
     recon_explained: jnp.ndarray
     active_units: jnp.ndarray
+    velocity_r2: jnp.ndarray
     kl: jnp.ndarray
     val_loss: jnp.ndarray
     epochs_used: jnp.ndarray
@@ -178,6 +182,27 @@ def fit_scale_masked(params: AutoencoderParams, fields, mask, floor=1e-6) -> Aut
     occupied = speed_sq > 0
     rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
     return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
+
+
+def _occupied_mean_velocity(fields):
+    """(B, *grid, d) fields -> (B, d) mean velocity over each field's nonzero nodes (0 if none)."""
+    axes = tuple(range(1, fields.ndim - 1))
+    occupied = jnp.any(fields != 0, axis=-1, keepdims=True)
+    count = jnp.maximum(jnp.sum(occupied, axis=axes), 1)
+    return jnp.sum(jnp.where(occupied, fields, 0), axis=axes) / count
+
+
+def fit_readout(gram, cross, ridge=1e-6):
+    """Least-squares b ((r + 1, d)) from the moments A^T A / n and A^T y / n (a tiny ridge keeps
+    it defined when codes are collinear or constant)."""
+    regularizer = ridge * (jnp.trace(gram) / gram.shape[0] + 1.0)
+    return jnp.linalg.solve(gram + regularizer * jnp.eye(gram.shape[0], dtype=gram.dtype), cross)
+
+
+def readout_r2(means):
+    """(d,) R² = 1 - MSE / variance of the target, from `masked_means` with a readout."""
+    variance = means["target_square"] - means["target"] ** 2
+    return 1.0 - means["residual"] / variance
 
 
 def _slot_uniform(key, slots):
@@ -253,31 +278,54 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         fields = buffer.fields[slots].astype(params.scale.dtype)
         return jnp.where(_broadcast_mask(mask, fields), fields, 0)
 
-    def masked_means(params, buffer, slots, mask):
-        """Mean recon, KL and total (no sampling noise) over the masked slots; NaN if none."""
+    def masked_means(params, buffer, slots, mask, readout=None):
+        """Means over the masked slots (NaN if none), with the encoder means (no sampling noise).
+
+        recon, kl, total and signal (mean squared input) per snapshot; code and code_square, the
+        mean and mean square of the (r,) codes; gram and cross, the moments A^T A / n and
+        A^T y / n of a linear readout y ~ A b from A = [code, 1] to y = the snapshot's mean
+        velocity over occupied nodes (normalized); with a readout b ((r + 1, d)): residual, the
+        mean squared error of A b per velocity component, and target, target_square, the mean and
+        mean square of y.
+        """
+        dim = model.dim
 
         def body(sums, chunk):
             chunk_slots, chunk_mask = chunk
-            out = per_snapshot_losses(params, gather(params, buffer, chunk_slots, chunk_mask), None)
+            fields = gather(params, buffer, chunk_slots, chunk_mask)
+            out = per_snapshot_losses(params, fields, None)
             code = out["code"][:, 0]
-            out = {**out, "code": code, "code_square": code**2}
+            features = jnp.concatenate([code, jnp.ones_like(code[:, :1])], axis=1)
+            target = _occupied_mean_velocity(fields / params.scale)
+            out = {**out, "code": code, "code_square": code**2,
+                   "gram": features[:, :, None] * features[:, None, :],
+                   "cross": features[:, :, None] * target[:, None, :]}
+            if readout is not None:
+                out.update(residual=(features @ readout - target) ** 2, target=target,
+                           target_square=target**2)
             return {
                 k: sums[k] + jnp.sum(jnp.where(_broadcast_mask(chunk_mask, out[k]), out[k], 0),
                                      axis=0).astype(sums[k].dtype)
                 for k in sums
             }, None
 
-        zero = jnp.zeros((), params.scale.dtype)
-        codes = jnp.zeros((model.latent_dim,), params.scale.dtype)
+        dtype = params.scale.dtype
+        zero = jnp.zeros((), dtype)
+        codes = jnp.zeros((model.latent_dim,), dtype)
+        width = model.latent_dim + 1
+        sums = {"recon": zero, "kl": zero, "total": zero, "signal": zero, "code": codes,
+                "code_square": codes, "gram": jnp.zeros((width, width), dtype),
+                "cross": jnp.zeros((width, dim), dtype)}
+        if readout is not None:
+            sums.update({k: jnp.zeros((dim,), dtype)
+                         for k in ("residual", "target", "target_square")})
         chunk_slots, chunk_mask = _chunks(slots, mask, batch_size)
         n = jnp.sum(mask)
         # Real slots come first: only the chunks holding them are evaluated, so the cost follows
         # the buffer's content, not its capacity.
         sums = jax.lax.fori_loop(
             0, (n + batch_size - 1) // batch_size,
-            lambda i, sums: body(sums, (chunk_slots[i], chunk_mask[i]))[0],
-            {"recon": zero, "kl": zero, "total": zero, "signal": zero, "code": codes,
-             "code_square": codes})
+            lambda i, sums: body(sums, (chunk_slots[i], chunk_mask[i]))[0], sums)
         return {k: jnp.where(n > 0, v / jnp.maximum(n, 1), jnp.nan) for k, v in sums.items()}
 
     def learn(params: AutoencoderParams, buffer: ReplayBuffer, key):
@@ -385,12 +433,14 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
 
         best = params.replace(network=final.best_network)
         train = masked_means(best, buffer, split.train, split.train_mask)
-        validation = masked_means(best, buffer, split.validation, split.validation_mask)
+        readout = fit_readout(train["gram"], train["cross"])
+        validation = masked_means(best, buffer, split.validation, split.validation_mask, readout)
         stats = LearningStats(
             recon_loss_train=train["recon"],
             recon_loss_val=validation["recon"],
             recon_explained=explained_variance(validation["recon"], validation["signal"]),
             active_units=active_units(validation["code"], validation["code_square"]),
+            velocity_r2=readout_r2(validation),
             kl=validation["kl"],
             val_loss=validation["total"],
             epochs_used=final.epoch,

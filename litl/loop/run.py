@@ -7,8 +7,10 @@ writes into the run directory:
 * `run.json`: the settings (a rerun on the same directory must use the same ones);
 * `metrics.jsonl`: one JSON line per optimization iteration and seed (see `run`);
 * `learning.jsonl`: one JSON line per learning phase and seed: seed, phase (0: the initial
-  training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch and
-  val_recon_history (validation reconstruction loss after each epoch: the paper's Fig. 5);
+  training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch, sgd_steps,
+  recon_explained, active_units, velocity_r2 (see `LearningStats`), wall_s (the phase's time
+  for all seeds, compilation included in phase 0) and val_recon_history (validation
+  reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
 * `final/`: the final parameters of every seed (controller, design, observer);
 * `best/` and `best.json`: the parameters of each seed's best rollout, its task loss and iteration.
@@ -152,9 +154,11 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
         records = _read_metrics(metrics_file, int(counters["metrics_lines"]))
         learning = _read_metrics(learning_file, int(counters["learning_lines"]))
     else:
-        state, stats = bootstrap(shard_seeds(template))
+        phase_start = time.perf_counter()
+        state, stats = jax.block_until_ready(bootstrap(shard_seeds(template)))
         records = []
-        learning = _learning_records(stats, seeds, 0) if config.learned_observer else []
+        learning = (_learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
+                    if config.learned_observer else [])
         counters["learning_lines"] = len(learning)
         checkpoints.save(0, state, counters)
     state = shard_seeds(state)
@@ -185,6 +189,7 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
                         "recon_loss_val": _json_value(stats.recon_loss_val[s]),
                         "recon_explained": _json_value(stats.recon_explained[s]),
                         "active_units": _json_value(stats.active_units[s]),
+                        "velocity_r2": _json_value(stats.velocity_r2[s]),
                         "kl": _json_value(stats.kl[s]),
                         "learning_epochs": _json_value(stats.epochs_used[s]),
                         "retrain_change": None,
@@ -200,8 +205,10 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
                 _warn_unhealthy(metrics, seeds, episode, iteration)
             if retrains:
                 before = np.asarray(evaluate(state), np.float64)
-                state, stats = learn(state)
-                phase = _learning_records(stats, seeds, episode + 1)
+                phase_start = time.perf_counter()
+                state, stats = jax.block_until_ready(learn(state))
+                phase = _learning_records(stats, seeds, episode + 1,
+                                          time.perf_counter() - phase_start)
                 with open(learning_file, "a") as log:
                     log.writelines(json.dumps(r) + "\n" for r in phase)
                 learning += phase
@@ -218,8 +225,9 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
 
 
-def _learning_records(stats, seeds, phase: int) -> list[dict]:
-    """One record per seed of a learning phase's statistics (batched over seeds)."""
+def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:
+    """One record per seed of a learning phase's statistics (batched over seeds); `seconds` is
+    the phase's wall time for all seeds together (compilation included the first time)."""
     stats = jax.tree.map(np.asarray, stats)
     records = []
     for s, seed in enumerate(seeds):
@@ -228,12 +236,15 @@ def _learning_records(stats, seeds, phase: int) -> list[dict]:
             "seed": seed, "phase": phase, "epochs_used": used,
             "best_epoch": int(stats.best_epoch[s]),
             "steps_per_epoch": int(stats.steps_per_epoch[s]),
+            "sgd_steps": used * int(stats.steps_per_epoch[s]),
             "recon_loss_train": _json_value(stats.recon_loss_train[s]),
             "recon_loss_val": _json_value(stats.recon_loss_val[s]),
             "recon_explained": _json_value(stats.recon_explained[s]),
             "active_units": _json_value(stats.active_units[s]),
+            "velocity_r2": _json_value(stats.velocity_r2[s]),
             "kl": _json_value(stats.kl[s]),
             "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
+            "wall_s": None if seconds is None else round(seconds, 3),
         })
     return records
 

@@ -30,6 +30,8 @@ import numpy as np
 import optax
 from flax import struct
 
+from litl.models.window import Window
+
 LEVELS = 5
 INITIAL_LOG_VARIANCE = -4.0
 ACTIVATIONS = {"elu": nn.elu, "relu": nn.relu}
@@ -158,12 +160,22 @@ def fit_scale(params: AutoencoderParams, fields, floor=1e-6) -> AutoencoderParam
     return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
 
 
-def make_observer(model: ConvAutoencoder):
-    """`observe(params, state, grid_velocity) -> (r,)` encoder means, for use inside rollouts."""
+def make_observer(model: ConvAutoencoder, window: Window | None = None):
+    """`observe(params, state, grid_velocity) -> (r,)` encoder means, for use inside rollouts.
+
+    With a `window` the encoder sees the window of the grid around the particles' centroid
+    (`model.grid_shape` must be the window's shape); without one, the whole grid.
+    """
+    window = window or Window(model.grid_shape, model.grid_shape, 1.0)
+    if tuple(window.shape) != tuple(model.grid_shape):
+        raise ValueError(f"the model's grid_shape {tuple(model.grid_shape)} must be the window's "
+                         f"shape {window.shape}")
 
     def observe(params: AutoencoderParams, state, grid_velocity):
-        del state
-        mean, _ = model.apply(params.network, grid_velocity[None] / params.scale, method="encode")
+        field = grid_velocity
+        if not window.whole_grid:
+            field = window.crop(grid_velocity, jnp.mean(state.x, axis=0))
+        mean, _ = model.apply(params.network, field[None] / params.scale, method="encode")
         return mean[0]
 
     return observe

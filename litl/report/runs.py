@@ -26,7 +26,7 @@ ABLATIONS = (
     ("codesign", True, lambda value: "control only"),
 )
 LEARNED_OBSERVERS = ("vae", "ae")
-OBSERVER_ORDER = ("vae", "ae", "kmeans")
+OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
 IGNORED = ("seed", "seeds")
 # How a setting that differs between runs is named in their labels.
@@ -68,6 +68,16 @@ class Run:
     @property
     def observer(self) -> str:
         return str(self.loop.get("observer", "vae"))
+
+    @property
+    def controller(self) -> str:
+        return str(self.loop.get("controller", "mlp"))
+
+    @property
+    def head(self) -> str:
+        """What feeds the controller, heading the run's label: the observer, or an open-loop
+        controller's name (``"sinusoid"``)."""
+        return self.observer if self.controller == "mlp" else self.controller
 
     @property
     def learned(self) -> bool:
@@ -195,8 +205,13 @@ def _relevant(name: str, run: Run) -> bool:
         return run.learned
     if name == "clusters":
         return run.observer == "kmeans"
-    # The observer heads every label; ablation switches are named by `ABLATIONS`.
-    return name not in (*IGNORED, "observer", *(field for field, _, _ in ABLATIONS))
+    if name in ("controller_widths", "controller_period", "feature_gradient"):
+        return run.controller == "mlp"
+    if name == "controller_omega":
+        return run.controller == "sinusoid"
+    # The observer (or open-loop controller) heads every label; ablation switches are named by
+    # `ABLATIONS`.
+    return name not in (*IGNORED, "observer", "controller", *(field for field, _, _ in ABLATIONS))
 
 
 def _ablation_applies(field: str, run: Run) -> bool:
@@ -246,7 +261,7 @@ def labels(runs: list[Run]) -> list[str]:
                 varying.append(key)
         for s, i in zip(settings, indices):
             run = runs[i]
-            head = [run.observer] + [f"{names.get(key, key)}={_format(s[key], key)}"
+            head = [run.head] + [f"{names.get(key, key)}={_format(s[key], key)}"
                                      for key in varying if _relevant(key, run) and key in s]
             tail = [name(run.loop[field]) for field, default, name in ABLATIONS
                     if field in run.loop and run.loop[field] != default
@@ -286,7 +301,7 @@ def group_runs(runs: list[Run]) -> list[Group]:
 
     def order(key):
         robot, label = key
-        observer = pooled[key][0].observer
+        observer = pooled[key][0].head
         rank = OBSERVER_ORDER.index(observer) if observer in OBSERVER_ORDER else len(OBSERVER_ORDER)
         return robot, rank, label
 

@@ -100,6 +100,23 @@ def final_values(group: Group, key: str = "task_loss") -> np.ndarray:
     return np.array([last[k][1] for k in sorted(last)], np.float64)
 
 
+def final_window_values(group: Group, key: str = "task_loss", last: int = 10) -> np.ndarray:
+    """(n_series,) each seed's mean over its last `last` iterations (skipped ones left out).
+
+    Less noisy than the last iteration alone; NaN for a seed with no finite value there. Rows
+    are ordered as in `series`.
+    """
+    if isinstance(last, bool) or not isinstance(last, int) or last < 1:
+        raise ValueError(f"last must be a positive number of iterations, got {last!r}")
+    _, values = series(group, key)
+    tail = values[:, -last:]
+    finite = np.isfinite(tail)
+    with np.errstate(invalid="ignore"):
+        return np.where(finite.any(axis=1),
+                        np.where(finite, tail, 0.0).sum(axis=1) / np.maximum(finite.sum(axis=1), 1),
+                        np.nan)
+
+
 @dataclasses.dataclass(frozen=True)
 class Curve:
     """One label's learning curve: mean over seeds with a confidence band.

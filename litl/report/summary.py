@@ -12,7 +12,12 @@ import numpy as np
 
 from litl.report import figures
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
-from litl.report.stats import components, confidence_band, curves, final_values, series, table1
+from litl.report.stats import (
+    components, confidence_band, curves, final_values, final_window_values, series, table1,
+)
+
+# The final performance of a seed: the mean of its last this many iterations.
+FINAL_WINDOW = 10
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,6 +90,9 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
         mean, low, high = confidence_band(final, level)
         n = int(np.isfinite(final).sum())
         steps, values = series(group, "task_loss")
+        window = final_window_values(group, "task_loss", FINAL_WINDOW)
+        window_mean, window_low, window_high = confidence_band(window, level)
+        finite_window = window[np.isfinite(window)]
         entries.append({
             "robot": group.robot, "label": group.label,
             "observer": group.runs[0].observer, "seeds": group.n_seeds,
@@ -92,7 +100,13 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
             "iterations": int(steps[-1]) + 1 if len(steps) else 0,
             "final_task_loss": {"mean": _number(mean), "low": _number(low),
                                 "high": _number(high), "half_width": _number(high - mean),
-                                "n": n}})
+                                "n": n},
+            f"last{FINAL_WINDOW}_task_loss": {
+                "mean": _number(window_mean), "low": _number(window_low),
+                "high": _number(window_high), "half_width": _number(window_high - window_mean),
+                "per_seed": [_number(v) for v in window],
+                "best": _number(finite_window.min()) if finite_window.size else None,
+                "worst": _number(finite_window.max()) if finite_window.size else None}})
         if group.n_seeds < 2:
             notes.append(f"{group.robot} / {group.label}: one seed only, so its curves have no "
                          f"confidence band (the band needs at least 2 seeds)")
@@ -168,6 +182,15 @@ def summary_markdown(summary: dict) -> str:
         half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else " (one seed, no CI)"
         lines.append(f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | "
                      f"{format_number(final['mean'])}{half} |")
+    lines += ["", f"## Final task loss, each seed's mean over its last {FINAL_WINDOW} iterations",
+              "", f"| robot | label | mean ± {level} CI half-width | best seed | worst seed | "
+              "per seed |", "|---|---|---|---|---|---|"]
+    for e in summary["groups"]:
+        window = e[f"last{FINAL_WINDOW}_task_loss"]
+        half = f" ± {format_number(window['half_width'])}" if e["final_task_loss"]["n"] > 1 else ""
+        lines.append(f"| {e['robot']} | {e['label']} | {format_number(window['mean'])}{half} | "
+                     f"{format_number(window['best'])} | {format_number(window['worst'])} | "
+                     f"{', '.join(format_number(v, '.3f') for v in window['per_seed'])} |")
     lines += ["", "## Best label", ""]
     for robot, best in summary["best"].items():
         if best["compared"] < 2:

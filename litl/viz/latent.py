@@ -90,6 +90,19 @@ def field_plane(field) -> np.ndarray:
     return field if field.ndim == 3 else field[:, :, field.shape[2] // 2]
 
 
+# Velocity snapshots: the colour range is this percentile of |v| over the nodes the robot covers,
+# so that a few fast edge nodes (light nodes at the body's rim) do not wash the body's motion out.
+FIELD_PERCENTILE = 98.0
+
+
+def _robust_norm(*fields) -> mcolors.Normalize:
+    """Symmetric range at `FIELD_PERCENTILE` of the nonzero |values| (faster nodes saturate)."""
+    values = np.concatenate([np.abs(np.asarray(f)).ravel() for f in fields])
+    values = values[values > 0]
+    limit = float(np.percentile(values, FIELD_PERCENTILE)) if values.size else 0.0
+    return mcolors.Normalize(vmin=-(limit or 1.0), vmax=limit or 1.0)
+
+
 def _symmetric_norm(*fields) -> mcolors.Normalize:
     # A zero field still gets a valid range (matplotlib warns on vmin == vmax).
     limit = max(float(np.max(np.abs(f))) if np.size(f) else 0.0 for f in fields) or 1.0
@@ -134,7 +147,8 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
     Column t shows snapshot t: on top its velocity components (x left, y right; x, y, z of the
     mid-depth slice for 3D), in the middle the latent code (encoder means, the controller's input)
     as bars, below the reconstruction D(mean) in the same units and on the same colour range as
-    the input. Fields are divided by ``observer_params.scale`` before encoding and the
+    the input. The range is the 98th percentile of the inputs' nonzero |v| (`FIELD_PERCENTILE`):
+    the few fastest nodes saturate rather than wash the rest of the field out. Fields are divided by ``observer_params.scale`` before encoding and the
     reconstruction multiplied back, as the observer does. One colour range, symmetric about zero,
     serves every field panel so that snapshots compare; one bar range serves every code.
 
@@ -161,8 +175,7 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
 
     fig = _new_figure(1.4 * count * d + 1.0, 5.2)
     grid = fig.add_gridspec(3, count * d, height_ratios=(1.0, 0.7, 1.0))
-    norm = _symmetric_norm(*[field_plane(f) for f in fields],
-                           *[field_plane(f) for f in reconstructions])
+    norm = _robust_norm(*[field_plane(f) for f in fields])
     bar_limit = float(np.max(np.abs(means))) * 1.1 or 1.0
     # Bars in the fields' colours: blue positive, red negative.
     cmap = plt.get_cmap(FIELD_CMAP)
@@ -188,7 +201,7 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
     fig.axes[d].set_ylabel("reconstruction", fontsize=8)
     next(ax for ax in fig.axes if ax.get_gid() == "latent").set_ylabel("latent", fontsize=8)
     fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=FIELD_CMAP), ax=field_axes, shrink=0.6,
-                 label="velocity (red -, blue +)")
+                 extend="both", label="velocity (red -, blue +)")
     fig.suptitle(f"snapshots, latent codes and reconstructions{_depth_note(model)}", fontsize=10)
     _save(fig, path)
     return fig

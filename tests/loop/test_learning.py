@@ -13,7 +13,7 @@ from litl.models import vae
 GRID = (32, 32)
 CAPACITY = 40
 MODEL = vae.ConvAutoencoder(GRID, latent_dim=4, channels=(4, 4, 8, 8, 8))
-CONFIG = LearningConfig(max_epochs=12, batch_size=5, patience=4, learning_rate=1e-2)
+CONFIG = LearningConfig(patience_steps=None, max_steps=None, max_epochs=12, batch_size=5, patience=4, learning_rate=1e-2)
 EMPTY = np.zeros((0,) + GRID + (2,), np.float32)
 
 
@@ -87,7 +87,7 @@ def test_learning_lowers_validation_loss(learn, params):
 def test_early_stopping_when_validation_cannot_improve(params):
     # With a zero learning rate every epoch has the same validation loss: epoch 1 stays the best
     # and epoch 1 + patience is the last.
-    config = LearningConfig(max_epochs=5, batch_size=8, patience=2, learning_rate=0.0)
+    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=5, batch_size=8, patience=2, learning_rate=0.0)
     learn = jax.jit(learning.make_learning_phase(MODEL, config))
     best, stats = learn(params, buffer_of(moving_discs(12)), jax.random.key(2))
     assert int(stats.epochs_used) == 3 and int(stats.best_epoch) == 1
@@ -148,7 +148,7 @@ def test_too_few_entries_leave_params_unchanged(learn, params):
 
 
 def test_vmap_over_seeds_equals_separate_runs(two_params, x64):
-    config = LearningConfig(max_epochs=4, batch_size=4, patience=1, learning_rate=1e-2)
+    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=4, batch_size=4, patience=1, learning_rate=1e-2)
     learn = learning.make_learning_phase(MODEL, config)
     as64 = lambda tree: jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), tree)
     seeds = [as64(p) for p in two_params]
@@ -227,7 +227,7 @@ def test_an_epoch_costs_what_the_buffer_holds_not_its_capacity(params):
             return super().encode(field)
 
     model = Counting(GRID, latent_dim=4, channels=(4, 4, 8, 8, 8))
-    config = LearningConfig(max_epochs=3, batch_size=5, patience=3, learning_rate=1e-2)
+    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=3, batch_size=5, patience=3, learning_rate=1e-2)
     learn = jax.jit(learning.make_learning_phase(model, config))
     fields = moving_discs(10)
     counts = {}
@@ -250,3 +250,41 @@ def test_patience_and_budget_in_sgd_steps(learn, params):
     assert epochs >= 3   # a patience of one epoch would have allowed stopping after epoch 2
     with pytest.raises(ValueError, match="patience_steps must be a positive int"):
         LearningConfig(patience_steps=0)
+
+
+def test_velocity_readout_r2_has_known_answers():
+    rng = np.random.default_rng(0)
+    codes = jnp.asarray(rng.normal(size=(200, 3)))
+    features = jnp.concatenate([codes, jnp.ones((200, 1))], axis=1)
+    n = features.shape[0]
+    exact = codes @ jnp.asarray([[1.0, 0.0], [2.0, 0.5], [0.0, -1.0]]) + 0.3
+    noise = jnp.asarray(rng.normal(size=(200, 2)))
+    for target, expected in ((exact, 1.0), (noise, 0.0)):
+        readout = learning.fit_readout(features.T @ features / n, features.T @ target / n)
+        means = {"residual": jnp.mean((features @ readout - target) ** 2, axis=0),
+                 "target": jnp.mean(target, axis=0), "target_square": jnp.mean(target**2, axis=0)}
+        np.testing.assert_allclose(learning.readout_r2(means), expected, atol=0.05)
+    # The target: the mean velocity over occupied nodes (empty nodes do not dilute it).
+    field = np.zeros((1, 8, 8, 2), np.float32)
+    field[0, 2:4, 2:4] = (1.0, -2.0)
+    np.testing.assert_allclose(learning._occupied_mean_velocity(jnp.asarray(field)), [[1.0, -2.0]])
+
+
+def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
+    """velocity_r2: fit on the training half, scored on the validation half, at the best params."""
+    config = LearningConfig(max_epochs=3, batch_size=8, learning_rate=3e-3)
+    fields = moving_discs(40)
+    key = jax.random.key(1)
+    best, stats = jax.jit(learning.make_learning_phase(MODEL, config))(
+        params, buffer_of(fields, 40), key)
+    split = learning.random_split(40, 40, jax.random.split(key)[0])
+    x = fields / float(best.scale)
+    codes = np.asarray(MODEL.apply(best.network, jnp.asarray(x), method="encode")[0], np.float64)
+    occupied = np.any(x != 0, axis=-1)
+    target = (x * occupied[..., None]).sum((1, 2)) / occupied.sum((1, 2))[:, None]
+    design = np.c_[codes, np.ones(len(codes))]
+    train, validation = np.asarray(split.train), np.asarray(split.validation)
+    readout = np.linalg.lstsq(design[train], target[train], rcond=None)[0]
+    residual = ((design[validation] @ readout - target[validation]) ** 2).mean(0)
+    expected = 1 - residual / target[validation].var(0)
+    np.testing.assert_allclose(stats.velocity_r2, expected, rtol=1e-3, atol=1e-3)

@@ -108,6 +108,41 @@ def test_kmeans_baseline_runs_without_learning(tmp_path):
     assert result.state.observer.averaging.shape == (2, 3, tiny_robot().layout.n_particles)
 
 
+def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
+    from litl.loop.config import LoopConfigError
+    from litl.report import write_report
+
+    config = tiny_config(observer="none", controller="sinusoid", learning_rate=0.1)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    losses = [r["task_loss"] for r in result.metrics if r["seed"] == 0]
+    assert all(np.isfinite(losses)) and losses[-1] != losses[0]     # it does optimize
+    assert all(r["learning_epochs"] == 0 and r["recon_loss_val"] is None for r in result.metrics)
+    assert result.state.controller["params"]["weights"].shape == (2, tiny_robot().n_actuators, 4)
+    report = write_report(tmp_path)
+    assert [g["label"] for g in report.summary["groups"]] == ["sinusoid"]
+    with pytest.raises(LoopConfigError, match="reads no observer.*observer none"):
+        tiny_config(controller="sinusoid")
+
+
+def test_learned_observer_sees_a_window_that_follows_the_robot():
+    """At dx 1/64 the VAE reads a 32 x 32 window around the centroid, and stores those windows."""
+    import litl.robots
+    from litl.loop.algorithm import make_algorithm
+
+    robot = litl.robots.get("biped", dx=1 / 64)
+    algorithm = make_algorithm(robot, tiny_config(seeds=1, steps=20, window=0.5))
+    assert algorithm.model.grid_shape == (32, 32)
+    state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
+    fields = np.asarray(state.buffer.fields[: int(state.buffer.count)])
+    assert fields.shape[1:] == (32, 32, 2) and len(fields) == 2
+    # The robot (nonzero velocity) sits in the middle of the window, not at an edge: its
+    # occupied nodes' centre is within a few nodes of the window's centre (horizontally; the
+    # window is clamped at the floor vertically).
+    occupied = np.argwhere(np.any(fields[-1] != 0, axis=-1))
+    assert abs(occupied[:, 0].mean() - 16) < 3 and occupied[:, 1].min() >= 0
+    assert algorithm.steps == 20
+
+
 def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
     config = tiny_config(observer="ae", simultaneous=True, codesign=False)
     result = run(tiny_robot(), config, tmp_path, progress=False)

@@ -15,7 +15,7 @@ def tiny_config(**changes) -> LoopConfig:
     settings = dict(episodes=2, iterations=2, seeds=2, steps=40, latent_dim=4,
                     channels=(4, 4, 8, 8, 8), clusters=3, controller_widths=(16,),
                     snapshot_stride=10, replay_capacity=12, learning_rate=0.05,
-                    learning=LearningConfig(max_epochs=3, batch_size=4, patience=2))
+                    learning=LearningConfig(patience_steps=None, max_steps=None, max_epochs=3, batch_size=4, patience=2))
     settings.update(changes)
     return LoopConfig(**settings)
 

@@ -70,3 +70,22 @@ def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():
 
     rollout = make_rollout(config, body, policy, 60)
     assert_finite_nonzero_gradients(rollout, params, design, state)
+
+
+def test_sinusoid_controller_is_the_open_loop_policy_and_ignores_features():
+    from litl.models.open_loop import SinusoidController, sinusoid_actuation
+
+    controller = SinusoidController(3, omega=25.0, phases=4)
+    params = controller.init(jax.random.key(0), jnp.zeros(5), time=jnp.zeros(()))
+    weights, bias = params["params"]["weights"], params["params"]["bias"]
+    assert weights.shape == (3, 4) and float(jnp.abs(bias).max()) == 0.0
+    for t in (0.0, 0.13, 0.7):
+        out = controller.apply(params, jnp.full(5, 7.0), time=jnp.asarray(t))
+        np.testing.assert_allclose(out, controller.apply(params, jnp.zeros(5), time=jnp.asarray(t)))
+        phases = 25.0 * t + 2 * np.pi * np.arange(4) / 4
+        np.testing.assert_allclose(out, np.tanh(np.asarray(weights) @ np.sin(phases)), rtol=1e-5)
+        np.testing.assert_allclose(out, sinusoid_actuation(weights, bias, 25.0, t), rtol=1e-6)
+    with pytest.raises(ValueError, match="needs the simulated time"):
+        controller.apply(params, jnp.zeros(5))
+    with pytest.raises(ValueError, match="omega must be a positive"):
+        SinusoidController(3, omega=0.0)
