@@ -108,3 +108,20 @@ def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
     assert len(dirs) == 2
     seeds = {json.loads((d / "metrics.jsonl").read_text().splitlines()[0])["seed"] for d in dirs}
     assert seeds == {0, 1}
+
+
+def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
+    from omegaconf import OmegaConf
+
+    from litl.app import compose, loop_config
+
+    preset = OmegaConf.load(ROOT / "litl" / "conf" / "experiment" / "biped_compare.yaml")
+    assert preset.hydra.sweeper.params.variant.split(",") == ["vae", "kmeans", "sinusoid"]
+    for variant, observer, controller in (("vae", "vae", "mlp"), ("kmeans", "kmeans", "mlp"),
+                                          ("sinusoid", "none", "sinusoid")):
+        config = loop_config(compose(["experiment=biped_compare", f"variant={variant}"]))
+        assert (config.observer, config.controller) == (observer, controller)
+        assert config.seeds >= 5 and config.episodes * config.iterations == 100
+    assert compose(["experiment=biped_compare"]).robot.resolution == "demo"
+    # controller=sinusoid alone is the open-loop baseline (it reads no observer).
+    assert loop_config(compose(["controller=sinusoid"])).observer == "none"

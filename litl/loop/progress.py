@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
 import time
 
 
@@ -32,6 +34,39 @@ class Progress:
         elif iteration + 1 == self.iterations:
             self.stream.write(line + "\n")
         self.stream.flush()
+
+    @contextlib.contextmanager
+    def learning(self, episode: int):
+        """Around a learning phase: on a terminal the line keeps moving (a ticking clock, redrawn
+        by a thread while the jitted phase runs); in logs one line when it ends."""
+        if not self.enabled:
+            yield
+            return
+        start = time.perf_counter()
+        done = threading.Event()
+
+        def line():
+            return (f"episode {episode + 1}/{self.episodes} learning phase "
+                    f"{time.perf_counter() - start:.1f} s (run {time.perf_counter() - self.start:.0f} s)")
+
+        def tick():
+            while not done.wait(0.25):
+                self.stream.write("\r" + line() + " " * 8)
+                self.stream.flush()
+
+        ticker = threading.Thread(target=tick, daemon=True) if self.interactive else None
+        if ticker:
+            ticker.start()
+        try:
+            yield
+        finally:
+            done.set()
+            if ticker:
+                ticker.join()
+                self.stream.write("\r" + line() + " " * 8)
+            else:
+                self.stream.write(line() + "\n")
+            self.stream.flush()
 
     def close(self) -> None:
         if self.interactive:

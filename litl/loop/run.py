@@ -206,7 +206,8 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
             if retrains:
                 before = np.asarray(evaluate(state), np.float64)
                 phase_start = time.perf_counter()
-                state, stats = jax.block_until_ready(learn(state))
+                with bar.learning(episode):
+                    state, stats = jax.block_until_ready(learn(state))
                 phase = _learning_records(stats, seeds, episode + 1,
                                           time.perf_counter() - phase_start)
                 with open(learning_file, "a") as log:
