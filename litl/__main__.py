@@ -12,20 +12,39 @@ task_loss.png, robot.gif and pictures of the learned representation.
 
 from __future__ import annotations
 
+import os
 import sys
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 
-from litl.app import normalize_overrides, run_experiment
+from litl.app import SettingsError, normalize_overrides, run_experiment
 from litl.conf.schema import register, to_settings
+from litl.loop.checkpoint import CheckpointError
+from litl.loop.config import LoopConfigError
+from litl.loop.run import RunDirectoryError
+from litl.robots.catalog import UnknownRobotError
+from litl.robots.layout import LayoutError
+from litl.sim.config import ConfigError
+
+# Errors that are about the user's input, not about litl: printed as one message, no traceback.
+USER_ERRORS = (SettingsError, LoopConfigError, RunDirectoryError, CheckpointError,
+               UnknownRobotError, LayoutError, ConfigError)
 
 register()
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def _main(cfg) -> None:
-    run_experiment(to_settings(cfg), HydraConfig.get().runtime.output_dir)
+    try:
+        run_experiment(to_settings(cfg), HydraConfig.get().runtime.output_dir)
+    except USER_ERRORS as error:
+        # A setting or a run directory litl cannot use: the message says which and what to do;
+        # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
+        if os.environ.get("HYDRA_FULL_ERROR") == "1":
+            raise
+        print(f"litl: error: {error}", file=sys.stderr)
+        sys.exit(2)
 
 
 def main(argv: list[str] | None = None) -> None:

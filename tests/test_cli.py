@@ -54,7 +54,9 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("observer=vea", "Could not find 'observer/vea'"),
     ("observer.kind=vea", "unknown observer 'vea'"),
     ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
-    ("robot.dx=0.3", "must divide the domain"),
+    ("robot.dx=0.03", "must divide the domain"),
+    ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
+    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
     ("loop.alpha=1.5", "alpha must lie in \\(0, 1\\]"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
@@ -63,6 +65,7 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
     assert done.returncode != 0
     import re
     assert re.search(message, done.stderr), done.stderr[-2000:]
+    assert "Traceback" not in done.stderr, done.stderr[-2000:]
     assert not list(tmp_path.rglob("metrics.jsonl"))
 
 

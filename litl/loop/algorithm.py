@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from litl.loop.config import LoopConfig
+from litl.loop.config import LoopConfig, LoopConfigError
 from litl.loop.learning import LearningStats, make_learning_phase, soft_update
 from litl.loop.replay import ReplayBuffer, add, replace_with
 from litl.models import vae
@@ -148,6 +148,18 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.steps or robot.steps
     stride = min(config.snapshot_stride, steps)
+    if config.learned_observer and not config.simultaneous:
+        # A learning phase splits the buffer into a training and a validation half: with fewer
+        # than two snapshots it can learn nothing, and would say so only as epochs_used 0.
+        held = config.replay_capacity if config.replay else min(config.replay_capacity,
+                                                                steps // stride)
+        if held < 2:
+            raise LoopConfigError(
+                f"the learning phase needs at least 2 snapshots in the replay buffer, but it can "
+                f"hold {held} (replay_capacity={config.replay_capacity}, "
+                f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
+                f"snapshot_stride={config.snapshot_stride}, replay={config.replay}); raise "
+                f"loop.replay_capacity or lower loop.snapshot_stride")
     scene = robot.scene(dtype)
     sim_config, initial_state = scene.config, scene.state
     grid_shape, dim = sim_config.grid_shape, sim_config.dim

@@ -2,25 +2,35 @@
 
 A checkpoint holds the batched `LoopState` (parameters, optimizer states, replay buffer, PRNG key,
 latest learning statistics) and `counters`: numpy arrays of the run's shell, e.g. the number of
-episodes finished and of metrics lines written by then. A process killed mid-save leaves a temporary directory that orbax ignores, so the
-latest complete checkpoint is always the one restored.
+episodes finished and of metrics lines written by then. A process killed mid-save leaves a temporary directory that orbax ignores; a complete checkpoint
+damaged later (a truncated file, lost metadata) is skipped on restore in favour of the previous one
+(two are kept).
 """
 
 from __future__ import annotations
 
 import pathlib
+import sys
 
 import jax
 import numpy as np
 import orbax.checkpoint as ocp
 
 
+class CheckpointError(RuntimeError):
+    """No checkpoint of a run directory restores; the message says what to do."""
+
+
 class Checkpoints:
     """Save and restore `{"state": LoopState (batched), "counters": {name: array}}` by episode."""
 
     def __init__(self, directory: pathlib.Path, keep: int = 2):
+        if keep < 2:
+            raise ValueError(f"keep at least two checkpoints (a damaged newest one falls back to "
+                             f"the previous), got {keep!r}")
         options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False)
-        self.manager = ocp.CheckpointManager(pathlib.Path(directory).absolute(), options=options)
+        self.directory = pathlib.Path(directory).absolute()
+        self.manager = ocp.CheckpointManager(self.directory, options=options)
 
     def latest(self) -> int | None:
         """Episodes finished at the latest complete checkpoint, or None."""
@@ -32,13 +42,40 @@ class Checkpoints:
         self.manager.wait_until_finished()
 
     def restore(self, template_state, template_counters: dict):
-        """(state, counters) of the latest checkpoint, shaped like the templates."""
+        """(state, counters) of the newest checkpoint that restores cleanly.
+
+        A newer checkpoint that fails to restore (a truncated file, missing metadata) is moved
+        aside to `<checkpoints>/damaged-<episodes>` (kept, not deleted) and named on stderr; the
+        run continues from the next older one.
+
+        Raises:
+          CheckpointError: no checkpoint restores; the message says what to do.
+        """
         template = {"state": template_state,
                     "counters": {k: np.asarray(v) for k, v in template_counters.items()}}
         abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, template)
-        item = self.manager.restore(self.manager.latest_step(),
-                                    args=ocp.args.StandardRestore(abstract))
-        return item["state"], item["counters"]
+        failures = []
+        for step in sorted(self.manager.all_steps(), reverse=True):
+            try:
+                item = self.manager.restore(step, args=ocp.args.StandardRestore(abstract))
+            except Exception as error:  # orbax/tensorstore raise many kinds for damaged files
+                reason = str(error).strip().splitlines()[0][:200] if str(error).strip() else \
+                    type(error).__name__
+                failures.append((step, reason))
+                continue
+            for bad, reason in failures:
+                aside = self.directory / f"damaged-{bad}"
+                (self.directory / str(bad)).rename(aside)
+                print(f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
+                      f"moved it to {aside} and resumed from checkpoint {step}",
+                      file=sys.stderr)
+            if failures:
+                self.manager.reload()
+            return item["state"], item["counters"]
+        listing = "; ".join(f"{step}: {reason}" for step, reason in failures)
+        raise CheckpointError(
+            f"no checkpoint in {self.directory} can be restored ({listing}). Start a new run "
+            f"directory, or move {self.directory} away to start this run over.")
 
     def close(self):
         self.manager.close()

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import pathlib
 import sys
 import time
@@ -127,6 +128,52 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     algorithm = make_algorithm(robot, config)
     wanted = settings(robot, config, algorithm.steps)
     run_dir.mkdir(parents=True, exist_ok=True)
+    with RunDirectoryLock(run_dir):
+        return _run_locked(robot, config, run_dir, algorithm, wanted, progress,
+                           stop_after_episodes)
+
+
+class RunDirectoryLock:
+    """One process at a time on a run directory: an OS lock (`flock`) on `<run_dir>/.lock`.
+
+    The lock belongs to the open file, so it dies with its process: a SIGKILLed run leaves no
+    stale lock. A second process gets `RunDirectoryError` at once, naming the holder's pid, before
+    it has touched anything in the directory.
+    """
+
+    def __init__(self, run_dir: pathlib.Path):
+        self.path = pathlib.Path(run_dir) / ".lock"
+        self.file = None
+
+    def __enter__(self):
+        import fcntl
+
+        handle = open(self.path, "a+")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read().strip() or "unknown"
+            handle.close()
+            raise RunDirectoryError(
+                f"{self.path.parent} is in use by another litl run (process {holder}); wait for "
+                f"it to finish, or choose another run directory. Nothing was changed.") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"{os.getpid()}\n")
+        handle.flush()
+        self.file = handle
+        return self
+
+    def __exit__(self, *exc):
+        import fcntl
+
+        fcntl.flock(self.file, fcntl.LOCK_UN)
+        self.file.close()
+        return False
+
+
+def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes):
     settings_file = run_dir / "run.json"
     if settings_file.exists():
         found = json.loads(settings_file.read_text())

@@ -44,11 +44,20 @@ class Entry:
     summary: str
 
 
+# The coarsest grid spacing the robots fit in (16 cells across the unit domain).
+MAX_DX = 1 / 16
+
+
 def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
     """(SimConfig, steps) for the standard domain at spacing dx."""
     extent = (1.0, 1.0) if dim == 2 else (2.0, 1.0, 1.0)
+    if isinstance(dx, bool) or not isinstance(dx, (int, float)) or not 0 < dx <= MAX_DX:
+        raise ConfigError(
+            f"dx={dx!r} is not a usable grid spacing: it must be positive and at most 1/16 "
+            f"(16 cells across the unit domain; coarser grids cannot hold the robots), e.g. "
+            f"robot.dx=0.03125 (1/32), 0.015625 (1/64) or 0.0078125 (1/128)")
     cells = [e / dx for e in extent]
-    if not (dx > 0) or any(abs(c - round(c)) > 1e-6 for c in cells):
+    if any(abs(c - round(c)) > 1e-6 for c in cells):
         raise ConfigError(
             f"dx={dx!r} must divide the domain {extent} into whole cells, e.g. 1/32, 1/64 or 1/128")
     dt = DT_PER_DX * dx

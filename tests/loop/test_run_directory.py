@@ -1,0 +1,74 @@
+"""A run directory belongs to one process at a time, and a damaged checkpoint loses no run."""
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from litl.loop.checkpoint import CheckpointError
+from litl.loop.run import RunDirectoryError, RunDirectoryLock, run
+from tests.loop.tiny import tiny_config, tiny_robot
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+HOLD = """
+import pathlib, sys, time
+from litl.loop.run import RunDirectoryLock
+lock = RunDirectoryLock(pathlib.Path(sys.argv[1])).__enter__()
+print("locked", flush=True)
+time.sleep(120)
+"""
+
+
+def test_a_second_process_on_a_run_directory_stops_at_once_and_touches_nothing(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(tmp_path)], cwd=ROOT,
+                              stdout=subprocess.PIPE, text=True,
+                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(RunDirectoryError, match=f"in use by another litl run \\(process "
+                                                    f"{holder.pid}\\).*Nothing was changed"):
+            run(tiny_robot(), tiny_config(), tmp_path, progress=False)
+        assert sorted(p.name for p in tmp_path.iterdir()) == [".lock"]
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    # The lock died with its process: no stale lock after a SIGKILL.
+    with RunDirectoryLock(tmp_path):
+        assert (tmp_path / ".lock").read_text().strip() == str(os.getpid())
+
+
+def lines(path):
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd):
+    config = tiny_config(episodes=2, seeds=1)
+    reference = run(tiny_robot(), config, tmp_path / "reference", progress=False).metrics
+    directory = tmp_path / "damaged"
+    run(tiny_robot(), config, directory, progress=False)
+    checkpoints = directory / "checkpoints"
+    assert sorted(p.name for p in checkpoints.iterdir() if p.name.isdigit()) == ["1", "2"]
+
+    # A truncated file in the newest checkpoint: resume from checkpoint 1, redo episode 2.
+    biggest = max((p for p in (checkpoints / "2").rglob("*") if p.is_file()),
+                  key=lambda p: p.stat().st_size)
+    biggest.write_bytes(biggest.read_bytes()[:10])
+    resumed = run(tiny_robot(), config, directory, progress=False).metrics
+    assert "checkpoint 2 (episodes done) could not be restored" in capfd.readouterr().err
+    assert (checkpoints / "damaged-2").is_dir()          # kept aside, not deleted
+    for mine, theirs in zip(resumed, reference, strict=True):
+        assert mine["task_loss"] == theirs["task_loss"]
+    assert len(lines(directory / "metrics.jsonl")) == len(reference)
+
+    # Lost metadata, this time on every checkpoint: a short message, no traceback.
+    for step in ("1", "2"):
+        for meta in (checkpoints / step).rglob("_METADATA"):
+            meta.unlink()
+    with pytest.raises(CheckpointError, match="no checkpoint in .* can be restored.*new run"):
+        run(tiny_robot(), config, directory, progress=False)
+    assert len(lines(directory / "metrics.jsonl")) == len(reference)   # nothing lost
