@@ -45,6 +45,9 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
         assert (run_dir / name).stat().st_size > 0, name
     assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()
     assert "final task loss per seed" in done.stderr
+    # Quiet logs: no TPU probe, no matplotlib INFO chatter.
+    assert "Unable to initialize backend" not in done.stderr
+    assert "[matplotlib" not in done.stderr and "INFO" not in done.stderr
 
 
 @pytest.mark.parametrize("override, message", [
@@ -128,3 +131,15 @@ def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
     assert compose(["experiment=biped_compare"]).robot.resolution == "demo"
     # controller=sinusoid alone is the open-loop baseline (it reads no observer).
     assert loop_config(compose(["controller=sinusoid"])).observer == "none"
+
+
+def test_every_robot_builds_at_smoke_scale():
+    """+scale=smoke shrinks every robot, the 3D ones included (they used not to fit at dx 1/16)."""
+    import litl.robots
+    from litl.app import build_robot, compose, loop_config
+
+    for name in litl.robots.names():
+        settings = compose([f"robot={name}", "+scale=smoke"])
+        robot = build_robot(settings)
+        loop_config(settings)
+        assert robot.config.dx == (1 / 32 if robot.dim == 2 else 1 / 16), name

@@ -210,7 +210,7 @@ def _walker_3d(name, dx, torso_parts, leg_xs, width, leg, description):
     leg_w, leg_h = leg
     corners = [(x, z) for x in leg_xs for z in (0.0, width - leg_w)]
     parts = torso_parts + _legs_3d(corners, leg_w, leg_w, leg_h, 0, 1)
-    layout = place(sample_parts(parts, dx), config, x=0.2)
+    layout = place(sample_parts(parts, dx), config, x=max(0.2, start_x(dx)))
     return Robot(name, layout, config, task=Task(Locomotion()), steps=steps,
                  description=description)
 
