@@ -64,9 +64,10 @@ def test_resolution_changes_particles_but_keeps_shape_and_cfl():
 
 def test_a_dx_that_does_not_divide_the_domain_is_refused():
     with pytest.raises(ValueError, match="whole cells"):
-        litl.robots.get("biped", dx=0.3)
-    with pytest.raises(ValueError, match="whole cells"):
-        litl.robots.get("biped", dx=-1 / 64)
+        litl.robots.get("biped", dx=0.03)
+    for dx in (-1 / 64, 0, 0.3, float("nan")):
+        with pytest.raises(ValueError, match="not a usable grid spacing.*at most 1/16"):
+            litl.robots.get("biped", dx=dx)
 
 
 def test_biped_has_four_design_regions_for_co_design():
