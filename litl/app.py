@@ -17,6 +17,7 @@ import numpy as np
 import litl.robots
 from litl.conf.schema import Settings, register, to_settings
 from litl.loop import LearningConfig, LoopConfig, run
+from litl.loop.config import LoopConfigError
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
 
@@ -73,8 +74,38 @@ def build_robot(settings: Settings) -> Robot:
     return robot
 
 
+# Where each `LoopConfig` field comes from on the command line (errors name the key as typed).
+CLI_KEYS = {
+    "episodes": "loop.episodes", "iterations": "loop.iterations", "seeds": "seeds",
+    "seed": "seed", "steps": "sim.steps", "observer": "observer.kind",
+    "latent_dim": "observer.latent_dim", "window": "observer.window",
+    "channels": "observer.channels", "activation": "observer.activation",
+    "clusters": "observer.clusters", "controller": "controller.kind",
+    "controller_widths": "controller.widths", "controller_omega": "controller.omega",
+    "controller_period": "controller.period", "feature_gradient": "controller.feature_gradient",
+    "learning_rate": "controller.learning_rate",
+    "design_learning_rate": "loop.design_learning_rate", "gradient_clip": "loop.gradient_clip",
+    "snapshot_stride": "loop.snapshot_stride", "replay_capacity": "loop.replay_capacity",
+    "alpha": "loop.alpha", "one_shot": "loop.one_shot", "dtype": "sim.dtype",
+}
+
+
 def loop_config(settings: Settings) -> LoopConfig:
-    """The `LoopConfig` of a composed config (validated there)."""
+    """The `LoopConfig` of a composed config (validated there; errors name the CLI key)."""
+    try:
+        learning = LearningConfig(**dataclasses.asdict(settings.loop.learning))
+    except ValueError as error:
+        raise LoopConfigError(f"loop.learning.{error}") from None
+    try:
+        return _loop_config(settings, learning)
+    except LoopConfigError as error:
+        key = CLI_KEYS.get(error.field)
+        if key is None or not str(error).startswith(error.field):
+            raise
+        raise LoopConfigError(key + str(error)[len(error.field):], error.field) from None
+
+
+def _loop_config(settings: Settings, learning: LearningConfig) -> LoopConfig:
     loop, observer, controller = settings.loop, settings.observer, settings.controller
     return LoopConfig(
         episodes=loop.episodes, iterations=loop.iterations, seeds=settings.seeds,
@@ -89,7 +120,7 @@ def loop_config(settings: Settings) -> LoopConfig:
         design_learning_rate=loop.design_learning_rate, gradient_clip=loop.gradient_clip,
         snapshot_stride=loop.snapshot_stride,
         replay_capacity=loop.replay_capacity,
-        learning=LearningConfig(**dataclasses.asdict(loop.learning)),
+        learning=learning,
         alpha=loop.alpha, replay=loop.replay, one_shot=loop.one_shot,
         simultaneous=loop.simultaneous, codesign=loop.codesign, dtype=settings.sim.dtype)
 

@@ -55,12 +55,15 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
     ("robot=bipd", "Could not find 'robot/bipd'"),
     ("observer=vea", "Could not find 'observer/vea'"),
-    ("observer.kind=vea", "unknown observer 'vea'"),
+    ("observer.kind=vea", "observer.kind='vea': unknown observer"),
+    ("observer.latent_dim=0", "observer.latent_dim=0: must be a positive integer"),
+    ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
+    ("loop.learning.batch_size=0", "loop.learning.batch_size must be a positive int"),
     ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
     ("robot.dx=0.03", "must divide the domain"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
     ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
-    ("loop.alpha=1.5", "alpha must lie in \\(0, 1\\]"),
+    ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
 def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, message):

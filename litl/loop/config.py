@@ -14,7 +14,16 @@ FEATURE_GRADIENTS = ("full", "stop")
 
 
 class LoopConfigError(ValueError):
-    """A loop setting is invalid; the message says which and how to fix it."""
+    """A loop setting is invalid; the message says which and how to fix it.
+
+    Attributes:
+      field: the `LoopConfig` field at fault (None when several are), so that a front end can
+        name it as its user typed it (`litl.app` names the command-line key).
+    """
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,60 +104,59 @@ class LoopConfig:
     def __post_init__(self):
         object.__setattr__(self, "channels", tuple(self.channels))
         object.__setattr__(self, "controller_widths", tuple(self.controller_widths))
-        positive = ("episodes", "iterations", "seeds", "latent_dim", "clusters", "snapshot_stride",
-                    "replay_capacity")
-        for name in positive:
+
+        def invalid(field: str, text: str):
+            raise LoopConfigError(f"{field}={getattr(self, field)!r}: {text}", field)
+
+        def number(value):
+            return isinstance(value, (int, float)) and not isinstance(value, bool) and \
+                math.isfinite(value)
+
+        for name in ("episodes", "iterations", "seeds", "latent_dim", "clusters",
+                     "snapshot_stride", "replay_capacity"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise LoopConfigError(f"loop.{name} must be a positive integer, got {value!r}")
+                invalid(name, "must be a positive integer")
         if self.steps is not None and (not isinstance(self.steps, int) or self.steps < 1):
-            raise LoopConfigError(f"loop.steps must be a positive integer or None, got {self.steps!r}")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise LoopConfigError(f"loop.seed must be an integer >= 0, got {self.seed!r}")
+            invalid("steps", "must be a positive integer, or None for the robot's episode length")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            invalid("seed", "must be an integer >= 0")
         if self.observer not in OBSERVERS:
-            raise LoopConfigError(f"unknown observer {self.observer!r}; choose one of {OBSERVERS}")
-        if self.window is not None and not (
-                isinstance(self.window, (int, float)) and not isinstance(self.window, bool)
-                and math.isfinite(self.window) and self.window > 0):
-            raise LoopConfigError(f"observer window must be a positive length (domain units) or "
-                                  f"None for the whole grid, got {self.window!r}")
+            invalid("observer", f"unknown observer; choose one of {OBSERVERS}")
+        if self.window is not None and not (number(self.window) and self.window > 0):
+            invalid("window", "must be a positive length (domain units), or None for the whole "
+                              "grid")
         if self.controller not in CONTROLLERS:
-            raise LoopConfigError(f"unknown controller {self.controller!r}; choose one of "
-                                  f"{CONTROLLERS}")
+            invalid("controller", f"unknown controller; choose one of {CONTROLLERS}")
         if self.controller == "sinusoid" and self.observer != "none":
-            raise LoopConfigError(
-                f"the sinusoid controller is open loop and reads no observer, but observer is "
-                f"{self.observer!r}: set observer none (controller=sinusoid on the command line "
-                f"does so)")
-        if not (isinstance(self.controller_omega, (int, float)) and math.isfinite(
-                self.controller_omega) and self.controller_omega > 0):
-            raise LoopConfigError(f"controller omega must be a positive angular frequency "
-                                  f"(rad/s), got {self.controller_omega!r}")
+            invalid("observer", "the sinusoid controller is open loop and reads no observer: set "
+                                "observer none (controller=sinusoid on the command line does so)")
+        if not (number(self.controller_omega) and self.controller_omega > 0):
+            invalid("controller_omega", "must be a positive angular frequency (rad/s)")
         if self.activation not in ("elu", "relu"):
-            raise LoopConfigError(f"activation must be 'elu' or 'relu', got {self.activation!r}")
+            invalid("activation", "must be 'elu' or 'relu'")
         if len(self.channels) != 5 or any(c < 1 for c in self.channels):
-            raise LoopConfigError(f"loop.channels needs 5 positive widths, got {self.channels}")
+            invalid("channels", "needs 5 positive widths")
         if any(w < 1 for w in self.controller_widths):
-            raise LoopConfigError(f"controller widths must be positive, got {self.controller_widths}")
+            invalid("controller_widths", "every width must be positive")
         for name in ("learning_rate", "design_learning_rate"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise LoopConfigError(f"loop.{name} must be a positive number, got {value!r}")
-        if self.gradient_clip is not None and not (
-                isinstance(self.gradient_clip, (int, float)) and self.gradient_clip > 0):
-            raise LoopConfigError(f"gradient_clip must be positive or None, got {self.gradient_clip!r}")
-        if self.controller_period is not None and not self.controller_period > 0:
-            raise LoopConfigError(f"controller_period must be positive or None, got {self.controller_period}")
-        if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha <= 1):
-            raise LoopConfigError(
-                f"alpha must lie in (0, 1] (1 = no target smoothing), got {self.alpha!r}")
+            if not (number(value) and value > 0):
+                invalid(name, "must be a positive number")
+        if self.gradient_clip is not None and not (number(self.gradient_clip)
+                                                   and self.gradient_clip > 0):
+            invalid("gradient_clip", "must be positive, or None for no clipping")
+        if self.controller_period is not None and not (number(self.controller_period)
+                                                       and self.controller_period > 0):
+            invalid("controller_period", "must be positive (seconds), or None for no clock")
+        if not (number(self.alpha) and 0 < self.alpha <= 1):
+            invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
         if self.one_shot and self.simultaneous:
-            raise LoopConfigError("one_shot and simultaneous exclude each other; pick one ablation")
+            invalid("one_shot", "one_shot and simultaneous exclude each other; pick one ablation")
         if self.feature_gradient not in FEATURE_GRADIENTS:
-            raise LoopConfigError(f"feature_gradient must be one of {FEATURE_GRADIENTS}, got "
-                                  f"{self.feature_gradient!r}")
+            invalid("feature_gradient", f"must be one of {FEATURE_GRADIENTS}")
         if self.dtype not in DTYPES:
-            raise LoopConfigError(f"dtype must be one of {DTYPES}, got {self.dtype!r}")
+            invalid("dtype", f"must be one of {DTYPES}")
 
     @property
     def learned_observer(self) -> bool:
