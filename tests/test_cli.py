@@ -56,13 +56,9 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("robot=bipd", "Could not find 'robot/bipd'"),
     ("observer=vea", "Could not find 'observer/vea'"),
     ("observer.kind=vea", "observer.kind='vea': unknown observer"),
-    ("observer.latent_dim=0", "observer.latent_dim=0: must be a positive integer"),
     ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
-    ("loop.learning.batch_size=0", "loop.learning.batch_size must be a positive int"),
     ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
     ("robot.dx=0.03", "must divide the domain"),
-    ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
-    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
@@ -73,6 +69,22 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
     assert re.search(message, done.stderr), done.stderr[-2000:]
     assert "Traceback" not in done.stderr, done.stderr[-2000:]
     assert not list(tmp_path.rglob("metrics.jsonl"))
+
+
+@pytest.mark.parametrize("override, message", [
+    ("observer.latent_dim=0", "^observer.latent_dim=0: must be a positive integer"),
+    ("loop.learning.batch_size=0", "^loop.learning.batch_size must be a positive int"),
+    ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
+    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
+])
+def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
+    """The same checks as the CLI's, in process (the CLI path is covered above)."""
+    from litl.app import build_robot, compose, loop_config
+    from litl.loop import make_algorithm
+
+    settings = compose([override, "+scale=smoke"])
+    with pytest.raises(ValueError, match=message):
+        make_algorithm(build_robot(settings), loop_config(settings))
 
 
 def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():

@@ -16,22 +16,31 @@ from tests.loop.tiny import tiny_config, tiny_robot
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def one_episode(algorithm, state, batched):
-    """bootstrap -> optimize -> learn -> optimize, jitted (and vmapped when `batched`)."""
+def episode_of(algorithm, batched):
+    """bootstrap -> optimize -> learn -> optimize, jitted (and vmapped when `batched`); the
+    jitted functions are built once, so running several seeds alone compiles once."""
     wrap = (lambda f: jax.jit(jax.vmap(f))) if batched else jax.jit
-    state, _ = wrap(algorithm.bootstrap)(state)
-    state, first = wrap(algorithm.optimize)(state)
-    state, stats = wrap(algorithm.learn)(state)
-    state, second = wrap(algorithm.optimize)(state)
-    return state, (first["task_loss"], second["task_loss"], stats.recon_loss_val)
+    bootstrap, optimize, learn = (wrap(f) for f in (algorithm.bootstrap, algorithm.optimize,
+                                                    algorithm.learn))
+
+    def one_episode(state):
+        state, _ = bootstrap(state)
+        state, first = optimize(state)
+        state, stats = learn(state)
+        state, second = optimize(state)
+        return state, (first["task_loss"], second["task_loss"], stats.recon_loss_val)
+
+    return one_episode
 
 
 def test_vmapped_seeds_equal_sequential_runs(x64):
     algorithm = make_algorithm(tiny_robot(), tiny_config(dtype="float64"))
     seeds = (3, 4)
-    together, measured = one_episode(algorithm, stack_seeds([algorithm.init(s) for s in seeds]), True)
+    together, measured = episode_of(algorithm, True)(
+        stack_seeds([algorithm.init(s) for s in seeds]))
+    alone_episode = episode_of(algorithm, False)
     for index, seed in enumerate(seeds):
-        alone, alone_measured = one_episode(algorithm, algorithm.init(seed), False)
+        alone, alone_measured = alone_episode(algorithm.init(seed))
         for batched, single in zip(measured, alone_measured):
             np.testing.assert_allclose(batched[index], single, rtol=1e-6)
         for batched, single in zip(jax.tree.leaves(seed_slice(together, index)), jax.tree.leaves(alone)):
