@@ -1,5 +1,5 @@
 """`python -m litl` end to end in fresh processes: the default job (smoke-sized), config errors,
-and sweeps with the basic, joblib and submitit_local launchers.
+and sweeps with the basic (every robot at smoke scale), joblib and submitit_local launchers.
 
 The processes run from a temporary directory, so they import the installed package when litl is
 installed (the README's commands install it non-editable) and the source tree otherwise.
@@ -48,6 +48,14 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     # Quiet logs: no TPU probe, no matplotlib INFO chatter.
     assert "Unable to initialize backend" not in done.stderr
     assert "[matplotlib" not in done.stderr and "INFO" not in done.stderr
+    # The README's gallery script draws from such a run.
+    gallery = subprocess.run([sys.executable, str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
+                              "--demo", str(run_dir), "--out", str(tmp_path / "gallery")],
+                             capture_output=True, text=True, timeout=300)
+    assert gallery.returncode == 0, gallery.stderr[-3000:]
+    for name in ("robots.png", "task_loss.png", "robot.gif", "saliency.gif", "snapshots.png",
+                 "latent_sweeps.png"):
+        assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
 
 
 @pytest.mark.parametrize("override, message", [
@@ -117,7 +125,7 @@ def test_every_experiment_preset_composes():
         build_robot(settings)
 
 
-@pytest.mark.parametrize("launcher", ["basic", "joblib", "submitit_local"])
+@pytest.mark.parametrize("launcher", ["joblib", "submitit_local"])
 def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
     args = ["-m", "+scale=smoke", "observer=kmeans", "seed=0,1", f"hydra/launcher={launcher}",
             *QUIET]
@@ -148,13 +156,20 @@ def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
     assert loop_config(compose(["controller=sinusoid"])).observer == "none"
 
 
-def test_every_robot_builds_at_smoke_scale():
-    """+scale=smoke shrinks every robot, the 3D ones included (they used not to fit at dx 1/16)."""
+def test_every_robot_runs_at_smoke_scale_in_one_sweep(tmp_path):
+    """`+scale=smoke` runs every robot, 3D included, through the CLI; one sweep with the basic
+    launcher (k-means and one iteration keep it to ~10 s of compilation per 2D robot, ~20 s in 3D;
+    the default job above runs the VAE at smoke scale)."""
     import litl.robots
-    from litl.app import build_robot, compose, loop_config
 
-    for name in litl.robots.names():
-        settings = compose([f"robot={name}", "+scale=smoke"])
-        robot = build_robot(settings)
-        loop_config(settings)
-        assert robot.config.dx == (1 / 32 if robot.dim == 2 else 1 / 16), name
+    names = litl.robots.names()
+    done = litl_command(["-m", "+scale=smoke", f"robot={','.join(names)}", "observer=kmeans",
+                         "loop.episodes=1", "loop.iterations=1", *QUIET], tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    dirs = run_dirs(tmp_path / "multirun")
+    runs = [json.loads((d / "run.json").read_text()) for d in dirs]
+    assert sorted(r["robot"] for r in runs) == sorted(names)
+    for d, r in zip(dirs, runs):
+        assert len((d / "metrics.jsonl").read_text().splitlines()) == 1, d
+        assert r["dx"] == (1 / 32 if len(r["grid_shape"]) == 2 else 1 / 16), r["robot"]
+

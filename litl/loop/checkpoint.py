@@ -45,7 +45,8 @@ class Checkpoints:
         """(state, counters) of the newest checkpoint that restores cleanly.
 
         A newer checkpoint that fails to restore (a truncated file, missing metadata) is moved
-        aside to `<checkpoints>/damaged-<episodes>` (kept, not deleted) and named on stderr; the
+        aside to `<checkpoints>/damaged-<episodes>` (`-2`, `-3`, ... if that name is taken; kept,
+        not deleted) and named on stderr; the
         run continues from the next older one.
 
         Raises:
@@ -64,7 +65,7 @@ class Checkpoints:
                 failures.append((step, reason))
                 continue
             for bad, reason in failures:
-                aside = self.directory / f"damaged-{bad}"
+                aside = self._free_name(f"damaged-{bad}")
                 (self.directory / str(bad)).rename(aside)
                 print(f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
                       f"moved it to {aside} and resumed from checkpoint {step}",
@@ -79,3 +80,10 @@ class Checkpoints:
 
     def close(self):
         self.manager.close()
+
+    def _free_name(self, name: str) -> pathlib.Path:
+        """`directory / name`, or `name-2`, `name-3`, ... whichever does not exist yet."""
+        candidate, suffix = self.directory / name, 2
+        while candidate.exists():
+            candidate, suffix = self.directory / f"{name}-{suffix}", suffix + 1
+        return candidate

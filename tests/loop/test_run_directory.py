@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from litl.loop.checkpoint import CheckpointError
+from litl.loop.checkpoint import CheckpointError, Checkpoints
 from litl.loop.run import RunDirectoryError, RunDirectoryLock, run
 from tests.loop.tiny import tiny_config, tiny_robot
 
@@ -48,16 +48,13 @@ def lines(path):
 
 def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd):
     config = tiny_config(episodes=2, seeds=1)
-    reference = run(tiny_robot(), config, tmp_path / "reference", progress=False).metrics
     directory = tmp_path / "damaged"
-    run(tiny_robot(), config, directory, progress=False)
+    reference = run(tiny_robot(), config, directory, progress=False).metrics
     checkpoints = directory / "checkpoints"
     assert sorted(p.name for p in checkpoints.iterdir() if p.name.isdigit()) == ["1", "2"]
 
     # A truncated file in the newest checkpoint: resume from checkpoint 1, redo episode 2.
-    biggest = max((p for p in (checkpoints / "2").rglob("*") if p.is_file()),
-                  key=lambda p: p.stat().st_size)
-    biggest.write_bytes(biggest.read_bytes()[:10])
+    damage(checkpoints / "2")
     resumed = run(tiny_robot(), config, directory, progress=False).metrics
     assert "checkpoint 2 (episodes done) could not be restored" in capfd.readouterr().err
     assert (checkpoints / "damaged-2").is_dir()          # kept aside, not deleted
@@ -72,3 +69,24 @@ def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, c
     with pytest.raises(CheckpointError, match="no checkpoint in .* can be restored.*new run"):
         run(tiny_robot(), config, directory, progress=False)
     assert len(lines(directory / "metrics.jsonl")) == len(reference)   # nothing lost
+
+
+def damage(checkpoint: pathlib.Path) -> None:
+    biggest = max((p for p in checkpoint.rglob("*") if p.is_file()), key=lambda p: p.stat().st_size)
+    biggest.write_bytes(biggest.read_bytes()[:10])
+
+
+def test_a_checkpoint_damaged_twice_is_kept_aside_under_a_free_name(tmp_path):
+    checkpoints = Checkpoints(tmp_path)
+    state = {"w": np.random.default_rng(0).normal(size=20000)}   # incompressible: the data file is the biggest
+    counters = {"episodes": np.asarray(0)}
+    for episodes in (1, 2):
+        checkpoints.save(episodes, {"w": state["w"] * episodes}, {"episodes": np.asarray(episodes)})
+    for attempt in ("damaged-2", "damaged-2-2"):
+        damage(tmp_path / "2")
+        restored, restored_counters = checkpoints.restore(state, counters)
+        assert int(restored_counters["episodes"]) == 1
+        np.testing.assert_array_equal(restored["w"], state["w"])
+        assert (tmp_path / attempt).is_dir()
+        checkpoints.save(2, {"w": state["w"] * 2}, {"episodes": np.asarray(2)})
+    checkpoints.close()

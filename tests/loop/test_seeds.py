@@ -49,13 +49,16 @@ def test_vmapped_seeds_equal_sequential_runs(x64):
     assert measured[0][0] != measured[0][1]
 
 
+# Sharding concerns how seeds are placed, not what they run: k-means (no learning phase to compile)
+# keeps the two float64 compilations short.
 SHARDED = """
 import json, sys, jax
 from litl.loop.run import run, shard_seeds
 from tests.loop.tiny import tiny_config, tiny_robot
+SHARDED_CONFIG = tiny_config(episodes=1, dtype="float64", observer="kmeans")
 assert jax.device_count() == 2
 placed = shard_seeds({"x": jax.numpy.zeros((2, 3))})["x"]
-result = run(tiny_robot(), tiny_config(episodes=1, dtype="float64"), sys.argv[1], progress=False)
+result = run(tiny_robot(), SHARDED_CONFIG, sys.argv[1], progress=False)
 print(json.dumps({"devices": len(placed.sharding.device_set),
                   "losses": [m["task_loss"] for m in result.metrics]}))
 """
@@ -69,7 +72,7 @@ def test_seeds_spread_over_two_devices_give_the_same_run(tmp_path, x64):
     assert out.returncode == 0, out.stderr[-3000:]
     sharded = json.loads(out.stdout.strip().splitlines()[-1])
     assert sharded["devices"] == 2
-    local = run(tiny_robot(), tiny_config(episodes=1, dtype="float64"), tmp_path / "one",
-                progress=False)
+    local = run(tiny_robot(), tiny_config(episodes=1, dtype="float64", observer="kmeans"),
+                tmp_path / "one", progress=False)
     np.testing.assert_allclose(sharded["losses"], [m["task_loss"] for m in local.metrics],
                                rtol=1e-6)

@@ -37,7 +37,7 @@ def test_shapes_2d_and_3d(grid_shape):
     assert vae.padded_shape(grid_shape) == tuple(-(-n // 32) * 32 for n in grid_shape)
 
 
-def _train(model, fields, steps=1200, seed=0):
+def _train(model, fields, steps=500, seed=0):
     params = vae.fit_scale(vae.init_autoencoder(model, jax.random.key(seed)), fields)
     optimizer = optax.adam(3e-3)
     opt_state = optimizer.init(params.network)

@@ -1,0 +1,97 @@
+"""Regenerate the README's gallery (`notebooks/gallery/`) from the current code.
+
+    python notebooks/gallery/make_gallery.py                   # runs the demo (about 2 min on CPU)
+    python notebooks/gallery/make_gallery.py --demo RUN_DIR    # reuse a finished `python -m litl` run
+    python notebooks/gallery/make_gallery.py --compare multirun/biped_compare/<time>
+
+Writes robots.png (the eight robots), and from the demo run task_loss.png, robot.gif,
+saliency.gif, snapshots.png and latent_sweeps.png. With `--compare` (the multirun directory of
+`python -m litl -m experiment=biped_compare`) it also writes biped_compare.png, the report's
+task-loss bands of that sweep. Prints each file it wrote.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+
+GALLERY = pathlib.Path(__file__).resolve().parent
+DEMO_FILES = ("task_loss.png", "robot.gif", "saliency.gif", "snapshots.png", "latent_sweeps.png")
+
+
+def draw_robots(path: pathlib.Path) -> None:
+    """All catalog robots at their default resolution, one panel each."""
+    import litl.robots
+    from litl.viz import draw
+
+    names = litl.robots.names()
+    figure = plt.figure(figsize=(14, 7.5))
+    for index, name in enumerate(names):
+        robot = litl.robots.get(name)
+        projection = "3d" if robot.config.dim == 3 else None
+        ax = figure.add_subplot(2, (len(names) + 1) // 2, index + 1, projection=projection)
+        draw(robot, ax)
+        ax.set_title(name)
+    figure.subplots_adjust(left=0.04, right=0.97, wspace=0.3, hspace=0.35)
+    figure.savefig(path, dpi=72)
+    plt.close(figure)
+
+
+def run_demo(run_dir: pathlib.Path) -> None:
+    """The README's main command, `python -m litl`, into `run_dir`."""
+    command = [sys.executable, "-m", "litl", f"hydra.run.dir={run_dir}"]
+    print("running:", " ".join(command), flush=True)
+    subprocess.run(command, check=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--demo", type=pathlib.Path,
+                        help="a finished `python -m litl` run directory (default: run the demo now)")
+    parser.add_argument("--compare", type=pathlib.Path,
+                        help="the multirun directory of `python -m litl -m experiment=biped_compare`")
+    parser.add_argument("--out", type=pathlib.Path, default=GALLERY, help="where to write")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    draw_robots(args.out / "robots.png")
+    print(args.out / "robots.png")
+
+    with tempfile.TemporaryDirectory() as scratch:
+        demo = args.demo
+        if demo is None:
+            demo = pathlib.Path(scratch) / "demo"
+            run_demo(demo)
+        missing = [name for name in DEMO_FILES if not (demo / name).is_file()]
+        if missing:
+            parser.error(f"{demo} lacks {', '.join(missing)}: give the directory of a finished "
+                         "`python -m litl` run (with the VAE observer)")
+        for name in DEMO_FILES:
+            shutil.copyfile(demo / name, args.out / name)
+            print(args.out / name)
+
+    if args.compare is not None:
+        from litl.report import write_report
+
+        with tempfile.TemporaryDirectory() as scratch:
+            report = write_report(args.compare, scratch)
+            curves = [path for path in report.files if path.name == "task_loss.png"]
+            if not curves:
+                parser.error(f"no task-loss curves could be drawn from {args.compare}")
+            shutil.copyfile(curves[0], args.out / "biped_compare.png")
+            print(args.out / "biped_compare.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
