@@ -17,6 +17,7 @@ import sys
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from omegaconf import OmegaConf
 
 from litl.app import SettingsError, normalize_overrides, run_experiment
 from litl.conf.schema import register, to_settings
@@ -37,7 +38,13 @@ register()
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def _main(cfg) -> None:
     try:
-        run_experiment(to_settings(cfg), HydraConfig.get().runtime.output_dir)
+        hydra_config = HydraConfig.get()
+        # Hydra's record of the job (its own writing is off: hydra.output_subdir is null), written
+        # once this process owns the run directory, so a second run on it changes nothing.
+        config_files = {".hydra/config.yaml": OmegaConf.to_yaml(cfg),
+                        ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
+                        ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task))}
+        run_experiment(to_settings(cfg), hydra_config.runtime.output_dir, config_files)
     except USER_ERRORS as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
         # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).

@@ -12,12 +12,11 @@ import dataclasses
 import pathlib
 import sys
 
-import numpy as np
-
 import litl.robots
 from litl.conf.schema import Settings, register, to_settings
 from litl.loop import LearningConfig, LoopConfig, run
 from litl.loop.config import LoopConfigError
+from litl.loop.run import RunDirectoryLock
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
 
@@ -125,10 +124,12 @@ def _loop_config(settings: Settings, learning: LearningConfig) -> LoopConfig:
         simultaneous=loop.simultaneous, codesign=loop.codesign, dtype=settings.sim.dtype)
 
 
-def run_experiment(settings: Settings, run_dir):
+def run_experiment(settings: Settings, run_dir, config_files: dict[str, str] | None = None):
     """Run Algorithm 1 for the settings in `run_dir` (resuming it if it holds a run), then draw.
 
-    Returns the `litl.loop.RunResult`.
+    `config_files` ({relative path: text}) are written into `run_dir` once it is locked for this
+    process and its settings checked (`python -m litl` records Hydra's `.hydra/*.yaml` so, so that
+    a second process on the same directory changes nothing). Returns the `litl.loop.RunResult`.
     """
     robot = build_robot(settings)
     config = loop_config(settings)
@@ -136,14 +137,17 @@ def run_experiment(settings: Settings, run_dir):
     print(f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
           f"{robot.config.grid_shape}), observer {config.observer}, {config.seeds} seed(s), "
           f"{config.episodes} x {config.iterations} iterations -> {run_dir}", file=sys.stderr)
-    result = run(robot, config, run_dir, progress=settings.output.progress)
-    if settings.output.pictures or settings.output.animation:
-        from litl.pictures import draw_run
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with RunDirectoryLock(run_dir):        # held through the pictures too
+        result = run(robot, config, run_dir, progress=settings.output.progress,
+                     config_files=config_files)
+        if settings.output.pictures or settings.output.animation:
+            from litl.pictures import draw_run
 
-        draw_run(robot, config, result, run_dir, animation=settings.output.animation,
-                 pictures=settings.output.pictures, stride=settings.output.animation_stride)
+            draw_run(robot, config, result, run_dir, animation=settings.output.animation,
+                     pictures=settings.output.pictures, stride=settings.output.animation_stride)
     final = [r["task_loss"] for r in result.metrics[-config.seeds:]]
-    print(f"litl: final task loss per seed {np.round(final, 6).tolist()}; results in {run_dir}",
-          file=sys.stderr)
+    shown = ", ".join("n/a" if v is None else f"{v + 0.0:.6g}" for v in final)   # no "-0.0"
+    print(f"litl: final task loss per seed [{shown}]; results in {run_dir}", file=sys.stderr)
     return result
 

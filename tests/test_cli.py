@@ -1,5 +1,5 @@
 """`python -m litl` end to end in fresh processes: the default job (smoke-sized), config errors,
-and sweeps with the basic (every robot at smoke scale), joblib and submitit_local launchers.
+and sweeps with the basic, joblib (every robot at smoke scale) and submitit_local launchers.
 
 The processes run from a temporary directory, so they import the installed package when litl is
 installed (the README's commands install it non-editable) and the source tree otherwise.
@@ -44,6 +44,7 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
                  "latent_sweeps.png", "saliency.gif", "summary.md", "table1.csv"):
         assert (run_dir / name).stat().st_size > 0, name
     assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()
+    assert "- seeds=2" in (run_dir / ".hydra" / "overrides.yaml").read_text()
     assert "final task loss per seed" in done.stderr
     # Quiet logs: no TPU probe, no matplotlib INFO chatter.
     assert "Unable to initialize backend" not in done.stderr
@@ -125,7 +126,7 @@ def test_every_experiment_preset_composes():
         build_robot(settings)
 
 
-@pytest.mark.parametrize("launcher", ["joblib", "submitit_local"])
+@pytest.mark.parametrize("launcher", ["basic", "submitit_local"])
 def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
     args = ["-m", "+scale=smoke", "observer=kmeans", "seed=0,1", f"hydra/launcher={launcher}",
             *QUIET]
@@ -157,14 +158,15 @@ def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
 
 
 def test_every_robot_runs_at_smoke_scale_in_one_sweep(tmp_path):
-    """`+scale=smoke` runs every robot, 3D included, through the CLI; one sweep with the basic
-    launcher (k-means and one iteration keep it to ~10 s of compilation per 2D robot, ~20 s in 3D;
-    the default job above runs the VAE at smoke scale)."""
+    """`+scale=smoke` runs every robot, 3D included, through the CLI: one sweep with the joblib
+    launcher, two jobs at a time (k-means and one iteration keep it to ~10 s of compilation per 2D
+    robot, ~20 s in 3D; the default job above runs the VAE at smoke scale)."""
     import litl.robots
 
     names = litl.robots.names()
     done = litl_command(["-m", "+scale=smoke", f"robot={','.join(names)}", "observer=kmeans",
-                         "loop.episodes=1", "loop.iterations=1", *QUIET], tmp_path)
+                         "loop.episodes=1", "loop.iterations=1", "hydra/launcher=joblib",
+                         "hydra.launcher.n_jobs=2", *QUIET], tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     dirs = run_dirs(tmp_path / "multirun")
     runs = [json.loads((d / "run.json").read_text()) for d in dirs]

@@ -103,7 +103,8 @@ def _json_value(value):
 
 
 def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
-        stop_after_episodes: int | None = None) -> RunResult:
+        stop_after_episodes: int | None = None,
+        config_files: dict[str, str] | None = None) -> RunResult:
     """Run (or resume) Algorithm 1 for `config.seeds` seeds at once.
 
     Args:
@@ -113,6 +114,8 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
       progress: show a progress bar on stderr.
       stop_after_episodes: return after this many episodes in total (the run can be resumed
         later); None runs all `config.episodes`.
+      config_files: {relative path: text} written into `run_dir` once the directory is locked
+        and its settings agree with `config` (the CLI records its composed Hydra config so).
 
     Returns:
       A `RunResult`. Each metrics record has: seed, episode, iteration (within the episode),
@@ -130,7 +133,7 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):
         return _run_locked(robot, config, run_dir, algorithm, wanted, progress,
-                           stop_after_episodes)
+                           stop_after_episodes, config_files or {})
 
 
 class RunDirectoryLock:
@@ -138,16 +141,23 @@ class RunDirectoryLock:
 
     The lock belongs to the open file, so it dies with its process: a SIGKILLed run leaves no
     stale lock. A second process gets `RunDirectoryError` at once, naming the holder's pid, before
-    it has touched anything in the directory.
+    it has touched anything in the directory. Within one process the lock is re-entrant (the CLI
+    holds it while it records its config, `run` takes it again).
     """
+
+    _held: dict = {}   # resolved lock path -> [open file, depth], for this process
 
     def __init__(self, run_dir: pathlib.Path):
         self.path = pathlib.Path(run_dir) / ".lock"
-        self.file = None
+        self.key = str(self.path.absolute().resolve())
 
     def __enter__(self):
         import fcntl
 
+        held = self._held.get(self.key)
+        if held is not None:
+            held[1] += 1
+            return self
         handle = open(self.path, "a+")
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -162,18 +172,23 @@ class RunDirectoryLock:
         handle.truncate()
         handle.write(f"{os.getpid()}\n")
         handle.flush()
-        self.file = handle
+        self._held[self.key] = [handle, 1]
         return self
 
     def __exit__(self, *exc):
         import fcntl
 
-        fcntl.flock(self.file, fcntl.LOCK_UN)
-        self.file.close()
+        held = self._held[self.key]
+        held[1] -= 1
+        if held[1] == 0:
+            del self._held[self.key]
+            fcntl.flock(held[0], fcntl.LOCK_UN)
+            held[0].close()
         return False
 
 
-def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes):
+def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes,
+                config_files):
     settings_file = run_dir / "run.json"
     if settings_file.exists():
         found = json.loads(settings_file.read_text())
@@ -184,6 +199,9 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
                 f"with the same settings or choose a new run directory. Nothing was changed.")
     else:
         settings_file.write_text(json.dumps(wanted, indent=1))
+    for name, text in config_files.items():
+        (run_dir / name).parent.mkdir(parents=True, exist_ok=True)
+        (run_dir / name).write_text(text)
 
     seeds = [config.seed + s for s in range(config.seeds)]
     batched = lambda f: jax.jit(jax.vmap(f))

@@ -34,6 +34,14 @@ def test_a_second_process_on_a_run_directory_stops_at_once_and_touches_nothing(t
                                                     f"{holder.pid}\\).*Nothing was changed"):
             run(tiny_robot(), tiny_config(), tmp_path, progress=False)
         assert sorted(p.name for p in tmp_path.iterdir()) == [".lock"]
+        # The same through the CLI (no .hydra/, no litl.log written before the lock is taken).
+        before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+        done = subprocess.run([sys.executable, "-m", "litl", "+scale=smoke",
+                               f"hydra.run.dir={tmp_path}"], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert done.returncode == 2, done.stderr[-2000:]
+        assert "in use by another litl run" in done.stderr
+        assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait()

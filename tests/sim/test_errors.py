@@ -1,7 +1,6 @@
 """Every bad setting a user can give fails early with a message that says what to change."""
 
 import jax.numpy as jnp
-import numpy as np
 import pytest
 
 from litl.robots.primitives import sample_box

@@ -40,7 +40,6 @@ def test_snapshots_are_strided_grid_velocities(x64):
 
 def test_policy_sees_latest_grid_velocity(scene):
     config, body, design, state = scene
-    seen = []
 
     def policy(params, s, grid_velocity):
         return jnp.tanh(jnp.full((body.n_actuators,), jnp.sum(grid_velocity)))
