@@ -13,6 +13,7 @@ task_loss.png, robot.gif and pictures of the learned representation.
 from __future__ import annotations
 
 import os
+import pathlib
 import sys
 
 import hydra
@@ -48,10 +49,30 @@ def _main(cfg) -> None:
     except USER_ERRORS as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
         # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
+        if not isinstance(error, RunDirectoryError):   # (that directory is another run's)
+            _remove_if_unused(pathlib.Path(HydraConfig.get().runtime.output_dir))
         if os.environ.get("HYDRA_FULL_ERROR") == "1":
             raise
         print(f"litl: error: {error}", file=sys.stderr)
         sys.exit(2)
+
+
+def _remove_if_unused(run_dir: pathlib.Path) -> None:
+    """A run that failed before writing anything leaves no directory behind (nor empty parents
+    up to the working directory); a directory holding anything but this process's lock file is
+    kept."""
+    if not run_dir.is_dir() or any(p.name != ".lock" for p in run_dir.iterdir()):
+        return
+    lock = run_dir / ".lock"
+    if lock.exists():
+        if lock.read_text().strip() != str(os.getpid()):
+            return
+        lock.unlink()
+    stop = pathlib.Path.cwd().resolve()
+    path = run_dir.resolve()
+    while path != stop and stop in path.parents and not any(path.iterdir()):
+        path.rmdir()
+        path = path.parent
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import pathlib
 import sys
 
@@ -52,10 +53,13 @@ def compose(overrides: list[str] = ()) -> Settings:
 
 def build_robot(settings: Settings) -> Robot:
     """The configured robot at the configured resolution, with the configured task."""
-    name = settings.robot.name
+    name, module = settings.robot.name, settings.robot.module
+    import_user_module("robot.module", module, "litl.robots.register")
     if name not in litl.robots.names():
+        hint = (f"; robot.module={module!r} registered no robot of that name" if module else
+                "; a robot of your own: robot.name=<name> robot.module=<module that registers it>")
         raise SettingsError(f"unknown robot {name!r}; choose one of {litl.robots.names()} "
-                            f"(robot=<name>)")
+                            f"(robot=<name>){hint}")
     resolution = settings.robot.resolution
     if resolution not in RESOLUTIONS:
         raise SettingsError(f"unknown robot.resolution {resolution!r}; choose one of "
@@ -89,8 +93,21 @@ CLI_KEYS = {
 }
 
 
+def import_user_module(key: str, module: str | None, registers: str) -> None:
+    """Import the module a setting names (it registers robots or observers of the user's own)."""
+    if not module:
+        return
+    try:
+        importlib.import_module(module)
+    except ImportError as error:
+        raise SettingsError(f"{key}={module!r} could not be imported ({error}); give a module "
+                            f"importable from the working directory or installed, which calls "
+                            f"{registers}") from None
+
+
 def loop_config(settings: Settings) -> LoopConfig:
     """The `LoopConfig` of a composed config (validated there; errors name the CLI key)."""
+    import_user_module("observer.module", settings.observer.module, "litl.loop.observers.register")
     try:
         learning = LearningConfig(**dataclasses.asdict(settings.loop.learning))
     except ValueError as error:

@@ -22,6 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from litl.loop import make_algorithm, seed_slice  # noqa: E402
+from litl.models.kmeans import KMeansObserver  # noqa: E402
+from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402
 from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
 from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
@@ -80,15 +82,17 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
 
 def _representation(robot, algorithm, state, run_dir: pathlib.Path,
                     stride: int) -> list[pathlib.Path]:
-    if algorithm.n_features == 0:
-        return []  # open loop: no observer to draw
-    if algorithm.model is None:
+    # Pictures follow the observer's parameters' type: k-means clusters, an autoencoder's
+    # snapshots, latent sweeps and saliency; nothing for other observers (or open loop).
+    if isinstance(state.observer, KMeansObserver):
         figure = plt.figure(figsize=(6, 5))
         ax = figure.add_subplot(111, projection="3d" if robot.dim == 3 else None)
         draw_clusters(robot, state.observer, ax=ax)
         figure.savefig(run_dir / "clusters.png", dpi=100)
         plt.close(figure)
         return [run_dir / "clusters.png"]
+    if not isinstance(algorithm.model, ConvAutoencoder):
+        return []
     count = int(state.buffer.count)
     if count == 0:
         return []

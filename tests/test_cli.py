@@ -67,6 +67,7 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("observer.kind=vea", "observer.kind='vea': unknown observer"),
     ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
     ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
+    ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
     ("robot.dx=0.03", "must divide the domain"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
@@ -77,6 +78,7 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
     import re
     assert re.search(message, done.stderr), done.stderr[-2000:]
     assert "Traceback" not in done.stderr, done.stderr[-2000:]
+    assert not (tmp_path / "outputs").exists()        # a failed start leaves no empty directory
     assert not list(tmp_path.rglob("metrics.jsonl"))
 
 
@@ -175,3 +177,17 @@ def test_every_robot_runs_at_smoke_scale_in_one_sweep(tmp_path):
         assert len((d / "metrics.jsonl").read_text().splitlines()) == 1, d
         assert r["dx"] == (1 / 32 if len(r["grid_shape"]) == 2 else 1 / 16), r["robot"]
 
+
+def test_a_robot_of_your_own_runs_from_the_cli(tmp_path):
+    from tests.robots.test_register import STOOL_MODULE
+
+    (tmp_path / "my_robots.py").write_text(STOOL_MODULE)
+    done = litl_command(["robot.name=stool", "robot.module=my_robots", "+scale=smoke",
+                         "observer=kmeans", "loop.episodes=1", "loop.iterations=1", *QUIET],
+                        tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    (run_dir,) = run_dirs(tmp_path / "outputs")
+    assert json.loads((run_dir / "run.json").read_text())["robot"] == "stool"
+    missing = litl_command(["robot.name=stol", "robot.module=my_robots"], tmp_path, timeout=120)
+    assert missing.returncode == 2
+    assert "unknown robot 'stol'" in missing.stderr and "registered no robot" in missing.stderr

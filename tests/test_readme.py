@@ -28,11 +28,14 @@ ROBOTS = "import tempfile\nimport jax.numpy as jnp"
 SHAPES = "from litl.robots import Box"
 PNG = "import tempfile\nfrom importlib import resources"
 LOOP = "import tempfile\nimport litl.robots"
+MODULE = "# my_robots.py"    # tests/robots/test_register.py and tests/test_cli.py run it
+OBSERVER_MODULE = "# my_observers.py"    # tests/loop/test_observers.py runs it
 
 
 def test_every_block_is_checked():
     for block in BLOCKS:
-        starts = [s for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP) if block.startswith(s)]
+        starts = [s for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP, MODULE,
+                              OBSERVER_MODULE) if block.startswith(s)]
         assert len(starts) == 1, f"this README python block has no test:\n{block[:200]}"
 
 

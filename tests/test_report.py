@@ -125,6 +125,20 @@ def test_labels_name_sizes_only_where_runs_differ_and_per_robot():
                              "vae dx=1/64 lr=0.01"]
 
 
+def test_labels_follow_the_settings_an_observer_reads_as_recorded_in_run_json():
+    """A run.json that records its observer's reads (`Observer.reads`) labels by those alone,
+    whatever the observer's name."""
+    def run(**loop):
+        settings = fake_run(observer="projection", **loop).settings
+        return Run(path=None, settings={**settings, "observer": {"learned": False,
+                                                                 "reads": ["latent_dim"]}},
+                   records=())
+
+    runs = [run(latent_dim=3), run(latent_dim=5), run(latent_dim=5, clusters=2)]
+    assert labels(runs) == ["projection r=3", "projection r=5", "projection r=5"]
+    assert not runs[0].learned
+
+
 def test_multirun_with_two_observers_writes_every_file(tmp_path):
     sweep = tmp_path / "multirun" / "2024-05-01"
     write_run(sweep / "0", observer="vae", final=0.5)

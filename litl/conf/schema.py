@@ -21,6 +21,8 @@ class RobotConf:
     dx: Optional[float] = None     # grid spacing; None: the robot's default (1/128 2D, 1/32 3D)
     resolution: str = "paper"      # with dx null: paper (1/128 2D, 1/32 3D), demo (1/64, 1/32),
                                    # smoke (1/32, 1/16)
+    module: Optional[str] = None   # a module to import first, which registers robots of your own
+                                   # (litl.robots.register); then robot.name=<its name>
 
 
 @dataclass
@@ -30,12 +32,14 @@ class TaskConf:
 
 @dataclass
 class ObserverConf:
-    kind: str = "vae"              # vae | ae | kmeans | none (open loop)
+    kind: str = "vae"              # vae | ae | kmeans | none (open loop) | one you registered
     latent_dim: int = 8            # r
     window: Optional[float] = 0.5  # side of the grid window around the robot (null: whole grid)
     channels: List[int] = field(default_factory=lambda: [8, 16, 32, 32, 64])
     activation: str = "elu"        # elu | relu (the paper's)
     clusters: int = 6              # k of the k-means baseline
+    module: Optional[str] = None   # a module to import first, which registers observers of your
+                                   # own (litl.loop.observers.register); then observer.kind=<name>
 
 
 @dataclass

@@ -2,10 +2,13 @@
 
     from litl.loop import LoopConfig, run
     result = run(litl.robots.get("biped"), LoopConfig(seeds=10), "outputs/biped")
+
+Observers (`litl.loop.observers`) are an interface of pure functions with a registry by name.
 """
 
 from litl.loop.algorithm import Algorithm, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.config import LoopConfig, LoopConfigError
+from litl.loop.observers import Learner, Observer
 from litl.loop.learning import (
     LearningConfig, LearningStats, Split, fit_scale_masked, make_learning_phase, random_split,
     soft_update,
@@ -14,8 +17,9 @@ from litl.loop.replay import ReplayBuffer, add, clear, replace_with, valid_field
 from litl.loop.run import RunDirectoryError, RunResult, load_final, run
 
 __all__ = [
-    "Algorithm", "LearningConfig", "LearningStats", "LoopConfig", "LoopConfigError", "LoopState",
-    "ReplayBuffer", "RunDirectoryError", "RunResult", "Split", "add", "clear", "fit_scale_masked",
-    "load_final", "make_algorithm", "make_learning_phase", "random_split", "replace_with", "run",
-    "seed_slice", "soft_update", "stack_seeds", "valid_fields", "valid_mask",
+    "Algorithm", "Learner", "LearningConfig", "LearningStats", "LoopConfig", "LoopConfigError",
+    "LoopState", "Observer", "ReplayBuffer", "RunDirectoryError", "RunResult", "Split", "add",
+    "clear", "fit_scale_masked", "load_final", "make_algorithm", "make_learning_phase",
+    "random_split", "replace_with", "run", "seed_slice", "soft_update", "stack_seeds",
+    "valid_fields", "valid_mask",
 ]

@@ -29,17 +29,23 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
+from litl.loop import observers
 from litl.loop.config import LoopConfig, LoopConfigError
-from litl.loop.learning import LearningStats, make_learning_phase, soft_update
+from litl.loop.learning import LearningStats, soft_update
+from litl.loop.observers import Observer
 from litl.loop.replay import ReplayBuffer, add, replace_with
-from litl.models import vae
 from litl.models.controller import MLPController
-from litl.models.kmeans import fit_kmeans, kmeans_features
 from litl.models.open_loop import SinusoidController
 from litl.robots.robot import Robot
 from litl.models.window import Window
 from litl.sim import make_rollout
 from litl.sim.rollout import centroid
+
+# How learning alternates with optimization (LoopConfig's one_shot / simultaneous ablations):
+# "alternating" (Algorithm 1: a learning phase after every episode), "one_shot" (learned once, at
+# the start), "simultaneous" (one observer step per optimization iteration, no phases), or "fixed"
+# (an observer that does not learn).
+SCHEDULES = ("alternating", "one_shot", "simultaneous", "fixed")
 
 
 # Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
@@ -122,12 +128,26 @@ class Algorithm:
     learn: Callable[[LoopState], tuple[LoopState, LearningStats]]
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
-    n_features: int
-    # For pictures and replays of one seed: policy((controller, observer), state, grid_velocity),
-    # the observer network (None for k-means) and the controller module.
+    observer: Observer
+    schedule: str
+    # For pictures and replays of one seed: policy((controller, observer), state, grid_velocity)
+    # and the controller module.
     policy: Callable
-    model: Any
     controller: MLPController | SinusoidController
+
+    @property
+    def n_features(self) -> int:
+        return self.observer.n_features
+
+    @property
+    def model(self):
+        """The learned observer's network (None for an observer that does not learn)."""
+        return self.observer.learner.model if self.observer.learned else None
+
+    @property
+    def retrains(self) -> bool:
+        """Whether a learning phase follows every episode (the run shell calls `learn`)."""
+        return self.schedule == "alternating"
 
 
 def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
@@ -148,7 +168,15 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.steps or robot.steps
     stride = min(config.snapshot_stride, steps)
-    if config.learned_observer and not config.simultaneous:
+    scene = robot.scene(dtype)
+    sim_config, initial_state = scene.config, scene.state
+    grid_shape, dim = sim_config.grid_shape, sim_config.dim
+    task_loss = robot.task_loss()
+    observer = observers.make(config.observer, robot, config, sim_config, dtype)
+    learner = observer.learner
+    schedule = ("fixed" if learner is None else "one_shot" if config.one_shot else
+                "simultaneous" if config.simultaneous else "alternating")
+    if learner is not None and schedule != "simultaneous":
         # A learning phase splits the buffer into a training and a validation half: with fewer
         # than two snapshots it can learn nothing, and would say so only as epochs_used 0.
         held = config.replay_capacity if config.replay else min(config.replay_capacity,
@@ -160,34 +188,9 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
                 f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
                 f"snapshot_stride={config.snapshot_stride}, replay={config.replay}); raise "
                 f"loop.replay_capacity or lower loop.snapshot_stride")
-    scene = robot.scene(dtype)
-    sim_config, initial_state = scene.config, scene.state
-    grid_shape, dim = sim_config.grid_shape, sim_config.dim
-    task_loss = robot.task_loss()
-
-    # Learned observers see a window that follows the robot (the whole grid with window None).
-    window = Window.around(grid_shape, sim_config.dx,
-                           config.window if config.learned_observer else None)
-    if config.learned_observer:
-        model = vae.ConvAutoencoder(window.shape, latent_dim=config.latent_dim,
-                                    channels=config.channels, activation=config.activation,
-                                    variational=config.observer == "vae")
-        encode = vae.make_observer(model, window)
-        n_features = config.latent_dim
-        learning_phase = make_learning_phase(model, config.learning)
-        observer_adam = optax.adam(config.learning.learning_rate)
-        observer_step = vae.make_train_step(model, observer_adam, config.learning.beta)
-    elif config.observer == "none":
-        model = None
-        encode = lambda observer, state, grid_velocity: jnp.zeros((0,), dtype)
-        n_features = 0
-    else:
-        model = None
-        if config.clusters > robot.layout.n_particles:
-            raise ValueError(f"clusters={config.clusters} exceeds the robot's "
-                             f"{robot.layout.n_particles} particles")
-        encode = kmeans_features
-        n_features = 2 * config.clusters * dim
+    # A learned observer's snapshots are windows that follow the robot (the whole grid otherwise).
+    window = learner.window if learner is not None else Window.around(grid_shape, sim_config.dx,
+                                                                        None)
     if config.controller == "sinusoid":
         controller = SinusoidController(robot.n_actuators, omega=config.controller_omega)
     else:
@@ -198,21 +201,21 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
     design_adam = optax.chain(*clip, optax.adam(config.design_learning_rate))
 
     def policy(params, state, grid_velocity):
-        controller_params, observer = params
-        features = encode(jax.lax.stop_gradient(observer), state, grid_velocity)
+        controller_params, observer_params = params
+        features = observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
         if config.feature_gradient == "stop":
             features = jax.lax.stop_gradient(features)
         time = state.step.astype(dtype) * sim_config.dt
         return controller.apply(controller_params, features.astype(dtype), time=time)
 
     rollout = make_rollout(sim_config, scene.body, policy, steps, snapshot_stride=stride,
-                           observe=centroid if config.learned_observer else lambda state: ())
+                           observe=centroid if learner is not None else lambda state: ())
 
     def simulate(controller_params, design, observer):
         final, trajectory = rollout((controller_params, observer), robot.design(design),
                                     initial_state)
         total, components = task_loss(initial_state, final)
-        if config.learned_observer and not window.whole_grid:
+        if learner is not None and not window.whole_grid:
             # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
             # with the state after that step: crop both around that state's centroid.
             centres = trajectory.observations[stride - 1::stride][:trajectory.snapshots.shape[0]]
@@ -223,29 +226,23 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
     def init(seed: int) -> LoopState:
         key = jax.random.key(seed)
         key, controller_key, observer_key = jax.random.split(key, 3)
-        features = jnp.zeros((n_features,), dtype)
+        features = jnp.zeros((observer.n_features,), dtype)
         controller_params = controller.init(controller_key, features, time=jnp.zeros((), dtype))
-        if config.learned_observer:
-            observer = vae.init_autoencoder(model, observer_key, dtype)
-            observer_optimizer = observer_adam.init(observer.network)
-        elif config.observer == "none":
-            observer, observer_optimizer = jnp.zeros((), dtype), ()  # a placeholder leaf
-        else:
-            observer = fit_kmeans(initial_state.x, config.clusters, seed=seed)
-            observer_optimizer = ()
+        observer_params = observer.init(observer_key, seed)
+        observer_optimizer = learner.optimizer_init(observer_params) if learner is not None else ()
         design = robot.region_youngs_modulus(dtype)
         return LoopState(
             controller=controller_params,
             design=design,
             controller_optimizer=controller_adam.init(controller_params),
             design_optimizer=design_adam.init(design),
-            observer=observer,
+            observer=observer_params,
             observer_optimizer=observer_optimizer,
             buffer=ReplayBuffer.empty(config.replay_capacity, window.shape, dim, dtype),
             key=jax.random.key_data(key),
             stats=empty_stats(dtype, config.learning.max_epochs, dim),
             best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
-                      controller=controller_params, design=design, observer=observer),
+                      controller=controller_params, design=design, observer=observer_params),
             iteration=jnp.zeros((), jnp.int32),
             consecutive_skips=jnp.zeros((), jnp.int32),
         )
@@ -255,12 +252,11 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         return state.replace(key=jax.random.key_data(key)), sub
 
     def learn(state: LoopState, alpha=config.alpha):
-        if not config.learned_observer:
+        if learner is None:
             return state, state.stats
         state, key = split_key(state)
-        trained, stats = learning_phase(state.observer, state.buffer, key)
-        observer = soft_update(state.observer, trained, alpha)
-        return state.replace(observer=observer, stats=stats), stats
+        trained, stats = learner.phase(state.observer, state.buffer, key)
+        return state.replace(observer=soft_update(state.observer, trained, alpha), stats=stats), stats
 
     def bootstrap(state: LoopState):
         total, (_, trajectory) = simulate(state.controller, state.design, state.observer)
@@ -296,11 +292,11 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         keep = add if config.replay else replace_with
         state = state.replace(buffer=keep(state.buffer, snapshots))
         recon = jnp.full((), jnp.nan, dtype)
-        if config.simultaneous and config.learned_observer:
+        if schedule == "simultaneous":
             state, key = split_key(state)
-            observer, observer_optimizer, losses = observer_step(
+            observer_params, observer_optimizer, losses = learner.step(
                 state.observer, state.observer_optimizer, snapshots, key)
-            state = state.replace(observer=observer, observer_optimizer=observer_optimizer)
+            state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
             recon = losses["recon"]
         # A failed iteration changes nothing but the key and the counters (and says why).
         state = keep_if(healthy, state, before).replace(
@@ -327,8 +323,8 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         return total
 
     return Algorithm(init=init, bootstrap=bootstrap, optimize=optimize, learn=learn,
-                     evaluate=evaluate, steps=steps, n_features=n_features, policy=policy,
-                     model=model, controller=controller)
+                     evaluate=evaluate, steps=steps, observer=observer, schedule=schedule,
+                     policy=policy, controller=controller)
 
 
 def stack_seeds(states: list[LoopState]) -> LoopState:

@@ -7,7 +7,6 @@ import math
 
 from litl.loop.learning import LearningConfig
 
-OBSERVERS = ("vae", "ae", "kmeans", "none")
 CONTROLLERS = ("mlp", "sinusoid")
 DTYPES = ("float32", "float64")
 FEATURE_GRADIENTS = ("full", "stop")
@@ -36,8 +35,9 @@ class LoopConfig:
       seeds: S, independent runs batched with `jax.vmap` (the paper uses 10).
       seed: base seed; the runs use seed, seed + 1, ..., seed + S - 1.
       steps: simulation steps per rollout (None: the robot's own episode length).
-      observer: ``"vae"`` (the method), ``"ae"`` (plain autoencoder), ``"kmeans"`` (baseline) or
-        ``"none"`` (no features: open-loop control, e.g. by an MLP of the clock or sinusoids).
+      observer: a registered observer (`litl.loop.observers`): ``"vae"`` (the method), ``"ae"``
+        (plain autoencoder), ``"kmeans"`` (baseline), ``"none"`` (no features: open-loop control,
+        e.g. by an MLP of the clock or sinusoids), or one of your own.
       latent_dim: r, latent variables of the (V)AE.
       window: side (domain units) of the window of the grid that a (V)AE sees, centred on the
         robot's particle centroid and rounded up to a multiple of 32 nodes (`litl.models.window`);
@@ -121,8 +121,10 @@ class LoopConfig:
             invalid("steps", "must be a positive integer, or None for the robot's episode length")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             invalid("seed", "must be an integer >= 0")
-        if self.observer not in OBSERVERS:
-            invalid("observer", f"unknown observer; choose one of {OBSERVERS}")
+        from litl.loop import observers   # (imported here: it builds on the loop's modules)
+
+        if self.observer not in observers.names():
+            invalid("observer", f"unknown observer; choose one of {observers.names()}")
         if self.window is not None and not (number(self.window) and self.window > 0):
             invalid("window", "must be a positive length (domain units), or None for the whole "
                               "grid")
@@ -157,7 +159,3 @@ class LoopConfig:
             invalid("feature_gradient", f"must be one of {FEATURE_GRADIENTS}")
         if self.dtype not in DTYPES:
             invalid("dtype", f"must be one of {DTYPES}")
-
-    @property
-    def learned_observer(self) -> bool:
-        return self.observer in ("vae", "ae")

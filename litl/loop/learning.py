@@ -464,10 +464,5 @@ def soft_update(target: AutoencoderParams, online: AutoencoderParams, alpha) -> 
     """
     if isinstance(alpha, (int, float)) and not 0.0 <= alpha <= 1.0:
         raise ValueError(f"alpha must be in [0, 1], got {alpha!r}")
-
-    def step(old, new):
-        a = jnp.asarray(alpha, new.dtype)
-        # alpha * new + (1 - alpha) * old rather than old + alpha * (new - old): exact at alpha = 1.
-        return a * new + (1 - a) * old
-
-    return jax.tree.map(step, target, online)
+    # Polyak averaging, alpha * new + (1 - alpha) * old: exact at alpha = 1 (and at 0).
+    return optax.incremental_update(online, target, alpha)

@@ -69,16 +69,19 @@ class RunResult:
     metrics: list[dict]
 
 
-def settings(robot: Robot, config: LoopConfig, steps: int) -> dict:
-    """What must match for a run directory to be resumed."""
+def settings(robot: Robot, config: LoopConfig, algorithm) -> dict:
+    """What must match for a run directory to be resumed (`run.json`); "observer" says what the
+    report needs to know of the observer (whether it learns, which settings it reads)."""
     return {
         "robot": robot.name,
         "particles": robot.layout.n_particles,
         "grid_shape": list(robot.config.grid_shape),
         "dx": robot.config.dx,
         "dt": robot.config.dt,
-        "steps": steps,
+        "steps": algorithm.steps,
         "loop": json.loads(json.dumps(dataclasses.asdict(config))),
+        "observer": {"learned": algorithm.observer.learned,
+                     "reads": list(algorithm.observer.reads)},
     }
 
 
@@ -129,7 +132,7 @@ def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
     """
     run_dir = pathlib.Path(run_dir)
     algorithm = make_algorithm(robot, config)
-    wanted = settings(robot, config, algorithm.steps)
+    wanted = settings(robot, config, algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):
         return _run_locked(robot, config, run_dir, algorithm, wanted, progress,
@@ -192,6 +195,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
     settings_file = run_dir / "run.json"
     if settings_file.exists():
         found = json.loads(settings_file.read_text())
+        found.setdefault("observer", wanted["observer"])   # run directories from before it
         if found != wanted:
             changed = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
             raise RunDirectoryError(
@@ -207,7 +211,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
     batched = lambda f: jax.jit(jax.vmap(f))
     bootstrap, optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
     learn, evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
-    retrains = config.learned_observer and not (config.one_shot or config.simultaneous)
+    retrains = algorithm.retrains
 
     checkpoints = Checkpoints(run_dir / "checkpoints")
     metrics_file, learning_file = run_dir / "metrics.jsonl", run_dir / "learning.jsonl"
@@ -223,7 +227,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
         state, stats = jax.block_until_ready(bootstrap(shard_seeds(template)))
         records = []
         learning = (_learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
-                    if config.learned_observer else [])
+                    if algorithm.observer.learned else [])
         counters["learning_lines"] = len(learning)
         checkpoints.save(0, state, counters)
     state = shard_seeds(state)

@@ -42,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{format_number(final['mean'])}{half}")
     for robot, best in report.summary["best"].items():
         if best["compared"] > 1:
-            print(f"best for {robot}: {best['label']}")
+            caveat = (f" (its {args.level:.0%} interval overlaps the runner-up's: the difference is "
+                      f"not clear at this level)" if best.get("overlaps_runner_up") else "")
+            print(f"lowest final task loss for {robot}: {best['label']}{caveat}")
     sys.stdout.flush()
     return 0

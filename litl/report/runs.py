@@ -25,7 +25,12 @@ ABLATIONS = (
     ("alpha", 0.5, lambda value: f"α={value:g}"),
     ("codesign", True, lambda value: "control only"),
 )
-LEARNED_OBSERVERS = ("vae", "ae")
+# Run directories written before run.json recorded its observer's reads (`Observer.reads`).
+LEGACY_READS = {"vae": ("latent_dim", "window", "channels", "activation", "learning"),
+                "ae": ("latent_dim", "window", "channels", "activation", "learning"),
+                "kmeans": ("clusters",)}
+# Settings some observer reads: they distinguish runs only where the run's observer reads them.
+OBSERVER_SETTINGS = ("latent_dim", "window", "channels", "activation", "learning", "clusters")
 OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
 IGNORED = ("seed", "seeds")
@@ -82,7 +87,18 @@ class Run:
     @property
     def learned(self) -> bool:
         """Whether the observer is learned (has a reconstruction loss)."""
-        return self.observer in LEARNED_OBSERVERS
+        known = self.settings.get("observer", {}).get("learned")
+        if known is not None:
+            return bool(known)
+        return "learning" in LEGACY_READS.get(self.observer, ())               # older run.json
+
+    @property
+    def observer_reads(self) -> tuple[str, ...]:
+        """The loop settings the run's observer depends on (`Observer.reads`)."""
+        known = self.settings.get("observer", {}).get("reads")
+        if known is not None:
+            return tuple(known)
+        return LEGACY_READS.get(self.observer, ())                              # older run.json
 
     @property
     def seeds(self) -> list[int]:
@@ -201,10 +217,9 @@ def _flatten(settings: dict, prefix: str = "") -> dict:
 
 def _relevant(name: str, run: Run) -> bool:
     # Settings of an observer a run does not use cannot distinguish it.
-    if name in ("latent_dim", "channels") or name.startswith("learning."):
-        return run.learned
-    if name == "clusters":
-        return run.observer == "kmeans"
+    root = name.split(".")[0]
+    if root in OBSERVER_SETTINGS or root in run.observer_reads:
+        return root in run.observer_reads
     if name in ("controller_widths", "controller_period", "feature_gradient"):
         return run.controller == "mlp"
     if name == "controller_omega":

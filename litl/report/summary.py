@@ -43,7 +43,8 @@ def _number(value):
 
 
 def format_number(value, spec: str = ".4g") -> str:
-    return "—" if value is None or not math.isfinite(value) else format(value, spec)
+    # + 0.0 turns -0.0 into 0.0: a loss that rounds to zero prints "0", never "-0".
+    return "—" if value is None or not math.isfinite(value) else format(value + 0.0, spec)
 
 
 def _relative(path: pathlib.Path, source: pathlib.Path) -> str:

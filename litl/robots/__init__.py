@@ -4,9 +4,10 @@
     litl.robots.names()                 # the registered robots
     robot = litl.robots.get("biped")    # a `Robot`: layout, sim config, materials, task
     scene = robot.scene()               # simulator pytrees (config, body, design, state)
+    litl.robots.register("mine", build, dim=2)   # your own: build(dx) -> Robot
 """
 
-from litl.robots.catalog import get, names
+from litl.robots.catalog import get, names, register
 from litl.robots.image import layout_from_png, layout_from_pixels
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.robot import Material, Robot, Scene, check_fits, place
@@ -16,5 +17,6 @@ from litl.robots.tasks import Locomotion, Reach, Task, make_task_loss
 __all__ = [
     "Box", "Circle", "Ellipse", "Extrusion", "Layout", "LayoutError", "Locomotion", "Material",
     "Part", "Polygon", "Reach", "Robot", "Scene", "Task", "Voxels", "check_fits", "get",
-    "layout_from_pixels", "layout_from_png", "make_task_loss", "names", "place", "sample_parts",
+    "layout_from_pixels", "layout_from_png", "make_task_loss", "names", "place", "register",
+    "sample_parts",
 ]

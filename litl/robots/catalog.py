@@ -262,6 +262,40 @@ ROBOTS: dict[str, Entry] = {
 }
 
 
+def register(name: str, build: Callable[[float], Robot], dim: int,
+             default_dx: float | None = None, summary: str = "", replace: bool = False) -> None:
+    """Make a robot of your own reachable as `litl.robots.get(name)` and from the CLI.
+
+    From the CLI, name the module that calls `register` (importable from the working directory
+    or installed): ``python -m litl robot.name=<name> robot.module=<module>``.
+
+    Args:
+      name: the robot's name.
+      build: ``build(dx) -> Robot`` at grid spacing dx (the catalog's `simulation(dim, dx,
+        duration)` gives its domain, time step and walls).
+      dim: 2 or 3.
+      default_dx: grid spacing of `get(name)` without dx (default: 1/128 in 2D, 1/32 in 3D, the
+        catalog's paper resolutions).
+      summary: a one-line description.
+      replace: allow replacing a robot of the same name (e.g. re-running a notebook cell).
+
+    Raises:
+      ValueError: an empty name, a name already taken (without `replace`), a `build` that is not
+        callable, or `dim` not 2 or 3.
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"a robot's name must be a non-empty string, got {name!r}")
+    if name in ROBOTS and not replace:
+        raise ValueError(f"a robot named {name!r} is already registered; choose another name or "
+                         f"pass replace=True")
+    if not callable(build):
+        raise ValueError(f"build must be a function build(dx) -> Robot, got {build!r}")
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+    dx = default_dx if default_dx is not None else (1 / 128 if dim == 2 else 1 / 32)
+    ROBOTS[name] = Entry(build, dim, dx, summary)
+
+
 def names() -> list[str]:
     """Names of the registered robots."""
     return sorted(ROBOTS)
@@ -274,7 +308,8 @@ def get(name: str, dx: float | None = None) -> Robot:
       UnknownRobotError: for an unknown name (the message lists the known ones).
     """
     if name not in ROBOTS:
-        raise UnknownRobotError(f"unknown robot {name!r}; choose one of {names()}")
+        raise UnknownRobotError(f"unknown robot {name!r}; choose one of {names()} (or register "
+                                f"your own with litl.robots.register)")
     entry = ROBOTS[name]
     return entry.build(entry.default_dx if dx is None else dx)
 

@@ -94,6 +94,7 @@ def make_rollout(
     observe: Callable[[SimState], Any] = centroid,
     remat: bool = True,
     checkpoint_every: int | None = None,
+    stress=None,
 ):
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
@@ -113,6 +114,8 @@ def make_rollout(
       remat: rematerialize each step in the backward pass (`jax.checkpoint`).
       checkpoint_every: also checkpoint segments of this many steps (a multiple of
         `snapshot_stride` when both are given); None: no segments.
+      stress: ``stress(F, mu, lam) -> tau``, the constitutive model (see `litl.sim.make_step`);
+        None: `config.material`'s.
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -131,7 +134,7 @@ def make_rollout(
             f"checkpoint_every must be a positive integer multiple of snapshot_stride "
             f"({snapshot_stride}) or None, got {checkpoint_every!r}"
         )
-    step_fn = make_component_step(config, body)
+    step_fn = make_component_step(config, body, stress)
     # Steps run in units (a snapshot is taken after each unit), units in segments (each
     # rematerialized as a whole when `checkpoint_every` is set).
     unit = snapshot_stride or min(checkpoint_every or steps, steps)

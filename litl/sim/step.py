@@ -14,6 +14,9 @@ from litl.sim.materials import MODELS, actuation_stress
 from litl.sim.state import Body, Design, Grid, SimState
 
 StepFn = Callable[[SimState, jnp.ndarray, Design], tuple[SimState, Grid]]
+# tau = stress(F, mu, lam): Kirchhoff stress from per-component F (F[i][j] of shape (n,)) and (n,)
+# Lamé parameters, as the models in `litl.sim.materials`.
+StressFn = Callable[[list, jnp.ndarray, jnp.ndarray], list]
 
 
 def particle_activation(body: Body, actuation, design: Design):
@@ -80,14 +83,14 @@ class Components:
         )
 
 
-def make_component_step(config: SimConfig, body: Body):
+def make_component_step(config: SimConfig, body: Body, stress: StressFn | None = None):
     """Like `make_step`, on `Components`: ``step(components, actuation, design, token=None)``.
 
     `token`, a () int32 >= 0 that is not batched under vmap (a scan counter), lets the step
     compute values read by many consumers into buffers (`linalg.materialize`): the walker's
     forward+backward pass takes 0.77 s with it and 1.1 s without.
     """
-    stress_model = MODELS[config.material]
+    stress_model = stress or MODELS[config.material]
     dx, dt, dim = config.dx, config.dt, config.dim
     # Buffering the grid and the node weights (and, in reverse mode, their cotangents) pays off
     # in 3D (quadruped3d forward+backward 24 s -> 22.5 s for the weights, 41 s -> 30 s for the
@@ -134,13 +137,16 @@ def make_component_step(config: SimConfig, body: Body):
     return step
 
 
-def make_step(config: SimConfig, body: Body) -> StepFn:
+def make_step(config: SimConfig, body: Body, stress: StressFn | None = None) -> StepFn:
     """Build `step(state, actuation, design) -> (next_state, grid)` for a fixed config and body.
 
     `actuation` is (m,), one value per actuator; `grid` holds the post-boundary grid velocity and
-    mass used to move the particles, i.e. what an observer sees.
+    mass used to move the particles, i.e. what an observer sees. `stress(F, mu, lam) -> tau` is
+    the constitutive model, a Kirchhoff stress from per-component deformation gradients and Lamé
+    parameters (`litl.sim.materials`; None: `config.material`'s, fixed corotated or neo-Hookean);
+    pass your own to simulate another material.
     """
-    component_step = make_component_step(config, body)
+    component_step = make_component_step(config, body, stress)
 
     def step(state: SimState, actuation, design: Design):
         next_state, grid = component_step(Components.unpack(state), actuation, design)

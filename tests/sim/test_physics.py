@@ -172,3 +172,28 @@ def test_polar_rotation_3d_is_a_rotation_with_finite_gradient_at_identity(x64):
         eps = 1e-6
         numeric = (energy(F0 + eps * direction) - energy(F0 - eps * direction)) / (2 * eps)
         np.testing.assert_allclose(jnp.vdot(grad, direction), numeric, rtol=1e-6, atol=1e-8)
+
+
+def test_the_step_takes_its_stress_function():
+    """`make_step(..., stress=...)`: the named model passed explicitly changes nothing; a material
+    of one's own (here a stress-free one, which cannot hold the block up) changes the motion."""
+    from litl.sim.materials import fixed_corotated
+
+    config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.2, gravity=-9.8,
+                                        youngs=200.0)
+    actuation = jnp.zeros(2, state.x.dtype)
+    named = make_step(config, body)(state, actuation, design)[0]
+    explicit = make_step(config, body, stress=fixed_corotated)(state, actuation, design)[0]
+    np.testing.assert_array_equal(named.x, explicit.x)
+    np.testing.assert_array_equal(named.F, explicit.F)
+
+    def stress_free(F, mu, lam):
+        return [[jnp.zeros_like(mu) for _ in row] for row in F]
+
+    rollout = lambda stress: jax.jit(make_rollout(config, body, lambda p, s, g: p, 300,
+                                                  stress=stress))(actuation, design, state)
+    solid, _ = rollout(None)
+    dust, _ = rollout(stress_free)
+    # Without stress the block slumps onto the floor; the elastic one keeps its height.
+    height = lambda final: float(jnp.max(final.x[:, 1]) - jnp.min(final.x[:, 1]))
+    assert height(dust) < 0.8 * height(solid)

@@ -1,0 +1,153 @@
+"""Observers: what a closed-loop controller sees, as a small interface of pure functions.
+
+An `Observer` is to Algorithm 1 what an optax `GradientTransformation` is to an optimizer loop: a
+frozen bundle of pure functions that the algorithm calls without knowing which observer it is.
+
+    observer = litl.loop.observers.make("vae", robot, config, sim_config, dtype)
+    params = observer.init(key, seed)                          # Θ
+    features = observer.features(params, state, grid_velocity)  # (observer.n_features,)
+
+A learned observer also has a `Learner`: the grid window its snapshots are cropped to, its learning
+phase and its single SGD step (the simultaneous ablation). Observers are made by factories
+registered by name (`register`); the CLI's `observer.kind` and `LoopConfig.observer` pick one:
+
+* ``vae``, ``ae``: the convolutional (variational) autoencoder of the grid velocity field (the
+  paper's method; features are the encoder means);
+* ``kmeans``: the paper's baseline, mean positions and velocities of k particle clusters;
+* ``none``: no features (open-loop control).
+
+A fourth observer takes one factory and one `register` call (and, for the CLI, one YAML file in
+`conf/observer/`); `tests/loop/test_observers.py` adds a fixed random projection of the grid so.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from litl.loop.learning import LearningStats, make_learning_phase
+from litl.models import vae
+from litl.models.kmeans import fit_kmeans, kmeans_features
+from litl.models.window import Window
+
+
+@dataclasses.dataclass(frozen=True)
+class Learner:
+    """How a learned observer learns from grid velocity snapshots.
+
+    Attributes:
+      window: the grid window (around the particle centroid) the snapshots are cropped to; the
+        replay buffer stores snapshots of `window.shape`.
+      phase: ``phase(params, buffer, key) -> (params', LearningStats)``, one learning phase on a
+        copy of the parameters (pure, vmappable over seeds).
+      step: ``step(params, opt_state, snapshots, key) -> (params, opt_state, losses)``, one SGD step
+        on a rollout's snapshots (the simultaneous ablation; losses has "recon").
+      optimizer_init: ``optimizer_init(params) -> opt_state`` for `step`.
+      model: the network (pictures of the representation read it).
+    """
+
+    window: Window
+    phase: Callable[[Any, Any, jax.Array], tuple[Any, LearningStats]]
+    step: Callable
+    optimizer_init: Callable[[Any], Any]
+    model: Any
+
+
+@dataclasses.dataclass(frozen=True)
+class Observer:
+    """An observer's pure functions (see the module docstring).
+
+    Attributes:
+      n_features: length of the feature vector.
+      init: ``init(key, seed) -> params`` (Θ; a pytree the loop checkpoints and vmaps over seeds).
+      features: ``features(params, state, grid_velocity) -> (n_features,)``, jittable, used at
+        every simulation step.
+      learner: how it learns from snapshots; None for an observer fixed at init.
+      reads: the `LoopConfig` fields it depends on (reports label runs by those that differ).
+    """
+
+    n_features: int
+    init: Callable[[jax.Array, int], Any]
+    features: Callable[[Any, Any, jax.Array], jax.Array]
+    learner: Learner | None = None
+    reads: tuple[str, ...] = ()
+
+    @property
+    def learned(self) -> bool:
+        return self.learner is not None
+
+
+Factory = Callable[..., Observer]   # factory(robot, config, sim_config, dtype) -> Observer
+_FACTORIES: dict[str, Factory] = {}
+
+
+def register(name: str, factory: Factory, replace: bool = False) -> None:
+    """Make `factory(robot, config, sim_config, dtype) -> Observer` selectable as `name`
+    (`LoopConfig.observer`, CLI `observer.kind`)."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"an observer's name must be a non-empty string, got {name!r}")
+    if name in _FACTORIES and not replace:
+        raise ValueError(f"an observer named {name!r} is already registered; pass replace=True")
+    if not callable(factory):
+        raise ValueError(f"factory must be callable, got {factory!r}")
+    _FACTORIES[name] = factory
+
+
+def unregister(name: str) -> None:
+    _FACTORIES.pop(name, None)
+
+
+def names() -> tuple[str, ...]:
+    """The registered observers' names."""
+    return tuple(_FACTORIES)
+
+
+def make(name: str, robot, config, sim_config, dtype) -> Observer:
+    """The observer `name` for `robot` under the loop `config`."""
+    if name not in _FACTORIES:
+        raise ValueError(f"unknown observer {name!r}; choose one of {names()}")
+    return _FACTORIES[name](robot, config, sim_config, dtype)
+
+
+def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
+    """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
+    window = Window.around(sim_config.grid_shape, sim_config.dx, config.window)
+    model = vae.ConvAutoencoder(window.shape, latent_dim=config.latent_dim,
+                                channels=config.channels, activation=config.activation,
+                                variational=variational)
+    adam = optax.adam(config.learning.learning_rate)
+    learner = Learner(window=window, phase=make_learning_phase(model, config.learning),
+                      step=vae.make_train_step(model, adam, config.learning.beta),
+                      optimizer_init=lambda params: adam.init(params.network), model=model)
+    return Observer(
+        n_features=config.latent_dim,
+        init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
+        features=vae.make_observer(model, window), learner=learner,
+        reads=("latent_dim", "window", "channels", "activation", "learning"))
+
+
+def kmeans(robot, config, sim_config, dtype) -> Observer:
+    """The k-means baseline: clusters of the rest configuration, fitted once per seed."""
+    if config.clusters > robot.layout.n_particles:
+        raise ValueError(f"clusters={config.clusters} exceeds the robot's "
+                         f"{robot.layout.n_particles} particles")
+    rest = robot.initial_state(dtype).x
+    return Observer(n_features=2 * config.clusters * sim_config.dim,
+                    init=lambda key, seed: fit_kmeans(rest, config.clusters, seed=seed),
+                    features=kmeans_features, reads=("clusters",))
+
+
+def no_observer(robot, config, sim_config, dtype) -> Observer:
+    """No features: the controller runs open loop (on the clock, or sinusoids)."""
+    return Observer(n_features=0, init=lambda key, seed: jnp.zeros((), dtype),  # a placeholder
+                    features=lambda params, state, grid_velocity: jnp.zeros((0,), dtype))
+
+
+register("vae", autoencoder)
+register("ae", lambda *args: autoencoder(*args, variational=False))
+register("kmeans", kmeans)
+register("none", no_observer)
