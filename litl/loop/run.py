@@ -246,29 +246,14 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
             for iteration in range(config.iterations):
                 state, metrics = optimize(state)
                 metrics = jax.tree.map(np.asarray, metrics)
-                design = np.asarray(state.design)
-                for s, seed in enumerate(seeds):
-                    record = {
-                        "seed": seed, "episode": episode, "iteration": iteration,
-                        "step": episode * config.iterations + iteration,
-                        **{k: _json_value(v[s]) for k, v in metrics.items()},
-                        "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
-                        "design": _json_value(design[s]),
-                        "recon_loss_train": _json_value(stats.recon_loss_train[s]),
-                        "recon_loss_val": _json_value(stats.recon_loss_val[s]),
-                        "recon_explained": _json_value(stats.recon_explained[s]),
-                        "active_units": _json_value(stats.active_units[s]),
-                        "velocity_r2": _json_value(stats.velocity_r2[s]),
-                        "kl": _json_value(stats.kl[s]),
-                        "learning_epochs": _json_value(stats.epochs_used[s]),
-                        "retrain_change": None,
-                        "wall_s": round(time.perf_counter() - start, 3),
-                    }
-                    if iteration == 1 and np.isfinite(before[s]):
-                        record["retrain_change"] = float(before[s] - metrics["task_loss"][s])
-                    out.write(json.dumps(record) + "\n")
-                    records.append(record)
+                step = episode * config.iterations + iteration
+                new = _iteration_records(metrics, stats, np.asarray(state.design), seeds,
+                                         (episode, iteration, step),
+                                         before if iteration == 1 else None,
+                                         time.perf_counter() - start)
+                out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
+                records += new
                 finite = metrics["task_loss"][np.isfinite(metrics["task_loss"])]
                 bar.update(episode, iteration, float(finite.mean()) if finite.size else np.nan)
                 _warn_unhealthy(metrics, seeds, episode, iteration)
@@ -293,6 +278,35 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, seeds)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
+
+
+def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:
+    """One `metrics.jsonl` record per seed of an optimization iteration (arrays batched over
+    seeds): `position` = (episode, iteration, global step); `stats`, the learning phase whose
+    observer is in use; `before`, the task losses before the latest retraining (for
+    retrain_change, on iteration 1 of an episode; else None)."""
+    episode, iteration, step = position
+    records = []
+    for s, seed in enumerate(seeds):
+        record = {
+            "seed": seed, "episode": episode, "iteration": iteration, "step": step,
+            **{k: _json_value(v[s]) for k, v in metrics.items()},
+            "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
+            "design": _json_value(design[s]),
+            "recon_loss_train": _json_value(stats.recon_loss_train[s]),
+            "recon_loss_val": _json_value(stats.recon_loss_val[s]),
+            "recon_explained": _json_value(stats.recon_explained[s]),
+            "active_units": _json_value(stats.active_units[s]),
+            "velocity_r2": _json_value(stats.velocity_r2[s]),
+            "kl": _json_value(stats.kl[s]),
+            "learning_epochs": _json_value(stats.epochs_used[s]),
+            "retrain_change": None,
+            "wall_s": round(seconds, 3),
+        }
+        if before is not None and np.isfinite(before[s]):
+            record["retrain_change"] = float(before[s] - metrics["task_loss"][s])
+        records.append(record)
+    return records
 
 
 def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:

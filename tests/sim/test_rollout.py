@@ -38,16 +38,29 @@ def test_snapshots_are_strided_grid_velocities(x64):
     assert int(final.step) == 23
 
 
-def test_policy_sees_latest_grid_velocity(scene):
-    config, body, design, state = scene
+def test_closed_loop_contract_step_k_sees_the_grid_after_step_k_minus_1(x64):
+    """The policy at step 0 reads the rasterized initial grid; at step k, the post-boundary grid
+    velocity that step k - 1 computed. Checked by a policy whose actuation is a readout of the
+    grid it sees (actuators of zero strength, so the readout does not change the motion)."""
+    config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25, dtype=jnp.float64)
+    design = design.replace(actuator_strength=jnp.zeros_like(design.actuator_strength))
+    state = state.replace(v=state.v + jnp.asarray([0.5, -0.2]))      # a field that is not zero
+    weights = jnp.linspace(-1.0, 1.0, config.grid_shape[0] * config.grid_shape[1] * 2)
 
-    def policy(params, s, grid_velocity):
-        return jnp.tanh(jnp.full((body.n_actuators,), jnp.sum(grid_velocity)))
+    def readout(grid_velocity):
+        return jnp.full((body.n_actuators,), jnp.dot(weights, grid_velocity.reshape(-1)))
 
-    velocity0 = rasterize(config, body, state.replace(v=state.v + 0.5), design).velocity
-    assert abs(float(jnp.sum(velocity0[..., 0]))) > 0  # the initial state's own field, not zeros
-    final, _ = make_rollout(config, body, policy, 10)(None, design, state.replace(v=state.v + 0.5))
-    assert np.all(np.isfinite(final.x))
+    steps = 6
+    _, trajectory = make_rollout(config, body, lambda p, s, g: readout(g), steps)(None, design, state)
+    step = make_step(config, body)
+    seen = [rasterize(config, body, state, design).velocity]
+    current = state
+    for _ in range(steps - 1):
+        current, grid = step(current, jnp.zeros(body.n_actuators), design)
+        seen.append(grid.velocity)
+    expected = jnp.stack([readout(g) for g in seen])
+    assert float(jnp.max(jnp.abs(jnp.diff(expected[:, 0])))) > 1e-6   # the grids differ per step
+    np.testing.assert_allclose(trajectory.actuation, expected, rtol=1e-12, atol=1e-14)
 
 
 def test_remat_does_not_change_values_or_gradients(scene):
