@@ -293,12 +293,7 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
             **{k: _json_value(v[s]) for k, v in metrics.items()},
             "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
             "design": _json_value(design[s]),
-            "recon_loss_train": _json_value(stats.recon_loss_train[s]),
-            "recon_loss_val": _json_value(stats.recon_loss_val[s]),
-            "recon_explained": _json_value(stats.recon_explained[s]),
-            "active_units": _json_value(stats.active_units[s]),
-            "velocity_r2": _json_value(stats.velocity_r2[s]),
-            "kl": _json_value(stats.kl[s]),
+            **_phase_statistics(stats, s),
             "learning_epochs": _json_value(stats.epochs_used[s]),
             "retrain_change": None,
             "wall_s": round(seconds, 3),
@@ -307,6 +302,13 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
             record["retrain_change"] = float(before[s] - metrics["task_loss"][s])
         records.append(record)
     return records
+
+
+def _phase_statistics(stats, s: int) -> dict:
+    """Seed `s`'s statistics of a learning phase (`LearningStats`, batched over seeds)."""
+    return {name: _json_value(getattr(stats, name)[s])
+            for name in ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units",
+                         "velocity_r2", "kl")}
 
 
 def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:
@@ -321,12 +323,7 @@ def _learning_records(stats, seeds, phase: int, seconds: float | None = None) ->
             "best_epoch": int(stats.best_epoch[s]),
             "steps_per_epoch": int(stats.steps_per_epoch[s]),
             "sgd_steps": used * int(stats.steps_per_epoch[s]),
-            "recon_loss_train": _json_value(stats.recon_loss_train[s]),
-            "recon_loss_val": _json_value(stats.recon_loss_val[s]),
-            "recon_explained": _json_value(stats.recon_explained[s]),
-            "active_units": _json_value(stats.active_units[s]),
-            "velocity_r2": _json_value(stats.velocity_r2[s]),
-            "kl": _json_value(stats.kl[s]),
+            **_phase_statistics(stats, s),
             "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
             "wall_s": None if seconds is None else round(seconds, 3),
         })
