@@ -41,12 +41,6 @@ from litl.models.window import Window
 from litl.sim import make_rollout
 from litl.sim.rollout import centroid
 
-# How learning alternates with optimization (LoopConfig's one_shot / simultaneous ablations):
-# "alternating" (Algorithm 1: a learning phase after every episode), "one_shot" (learned once, at
-# the start), "simultaneous" (one observer step per optimization iteration, no phases), or "fixed"
-# (an observer that does not learn).
-SCHEDULES = ("alternating", "one_shot", "simultaneous", "fixed")
-
 
 # Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
 SKIP_REASONS = {1: "particles_escaped", 2: "simulation_nonfinite", 3: "loss_nonfinite",
@@ -129,6 +123,10 @@ class Algorithm:
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     observer: Observer
+    # How learning alternates with optimization (LoopConfig's one_shot / simultaneous ablations):
+    # "alternating" (Algorithm 1: a learning phase after every episode), "one_shot" (learned once,
+    # at the start), "simultaneous" (one observer step per optimization iteration, no phases) or
+    # "fixed" (an observer that does not learn).
     schedule: str
     # For pictures and replays of one seed: policy((controller, observer), state, grid_velocity)
     # and the controller module.

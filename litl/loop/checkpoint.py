@@ -46,8 +46,7 @@ class Checkpoints:
 
         A newer checkpoint that fails to restore (a truncated file, missing metadata) is moved
         aside to `<checkpoints>/damaged-<episodes>` (`-2`, `-3`, ... if that name is taken; kept,
-        not deleted) and named on stderr; the
-        run continues from the next older one.
+        not deleted) and named on stderr; the run continues from the next older one.
 
         Raises:
           CheckpointError: no checkpoint restores; the message says what to do.

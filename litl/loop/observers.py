@@ -16,8 +16,10 @@ registered by name (`register`); the CLI's `observer.kind` and `LoopConfig.obser
 * ``kmeans``: the paper's baseline, mean positions and velocities of k particle clusters;
 * ``none``: no features (open-loop control).
 
-A fourth observer takes one factory and one `register` call (and, for the CLI, one YAML file in
-`conf/observer/`); `tests/loop/test_observers.py` adds a fixed random projection of the grid so.
+A fourth observer takes one factory and one `register` call in a module of your own; the CLI
+reaches it with `observer.kind=<name> observer.module=<module>` (a YAML file in `conf/observer/`
+would make it `observer=<name>`). `tests/loop/test_observers.py` adds a fixed random projection
+of the grid so.
 """
 
 from __future__ import annotations
@@ -95,10 +97,6 @@ def register(name: str, factory: Factory, replace: bool = False) -> None:
     if not callable(factory):
         raise ValueError(f"factory must be callable, got {factory!r}")
     _FACTORIES[name] = factory
-
-
-def unregister(name: str) -> None:
-    _FACTORIES.pop(name, None)
 
 
 def names() -> tuple[str, ...]:

@@ -46,6 +46,8 @@ class Entry:
 
 # The coarsest grid spacing the robots fit in (16 cells across the unit domain).
 MAX_DX = 1 / 16
+# Each dimension's default grid spacing (the paper-scale resolution).
+PAPER_DX = {2: 1 / 128, 3: 1 / 32}
 
 
 def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
@@ -251,14 +253,14 @@ def hexapod(dx: float) -> Robot:
 
 
 ROBOTS: dict[str, Entry] = {
-    "arm": Entry(arm, 2, 1 / 128, "2D arm with a pinned base reaching a target by swinging"),
-    "biped": Entry(biped, 2, 1 / 128, "2D biped running right; co-design of 4 regions"),
-    "elephant": Entry(elephant, 2, 1 / 128, "2D elephant walking right while its trunk reaches"),
-    "bunny": Entry(bunny, 2, 1 / 128, "2D bunny walking while two hands reach two targets"),
-    "rhino": Entry(rhino, 2, 1 / 128, "2D rhino from a PNG, running right"),
-    "quadruped": Entry(quadruped, 3, 1 / 32, "3D quadruped running toward +x"),
-    "curved_quadruped": Entry(curved_quadruped, 3, 1 / 32, "3D arched quadruped running toward +x"),
-    "hexapod": Entry(hexapod, 3, 1 / 32, "3D hexapod running toward +x"),
+    "arm": Entry(arm, 2, PAPER_DX[2], "2D arm with a pinned base reaching a target by swinging"),
+    "biped": Entry(biped, 2, PAPER_DX[2], "2D biped running right; co-design of 4 regions"),
+    "elephant": Entry(elephant, 2, PAPER_DX[2], "2D elephant walking right while its trunk reaches"),
+    "bunny": Entry(bunny, 2, PAPER_DX[2], "2D bunny walking while two hands reach two targets"),
+    "rhino": Entry(rhino, 2, PAPER_DX[2], "2D rhino from a PNG, running right"),
+    "quadruped": Entry(quadruped, 3, PAPER_DX[3], "3D quadruped running toward +x"),
+    "curved_quadruped": Entry(curved_quadruped, 3, PAPER_DX[3], "3D arched quadruped running toward +x"),
+    "hexapod": Entry(hexapod, 3, PAPER_DX[3], "3D hexapod running toward +x"),
 }
 
 
@@ -292,7 +294,7 @@ def register(name: str, build: Callable[[float], Robot], dim: int,
         raise ValueError(f"build must be a function build(dx) -> Robot, got {build!r}")
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim!r}")
-    dx = default_dx if default_dx is not None else (1 / 128 if dim == 2 else 1 / 32)
+    dx = default_dx if default_dx is not None else PAPER_DX[dim]
     ROBOTS[name] = Entry(build, dim, dx, summary)
 
 
