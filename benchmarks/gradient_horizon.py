@@ -19,7 +19,6 @@ sensitivity of late steps to early ones.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import pathlib
 import tempfile
@@ -32,13 +31,14 @@ import numpy as np
 def trained_state(observer: str, episodes: int, iterations: int, dx: float):
     """(robot, config, one seed's LoopState) after a short run."""
     import litl.robots
-    from litl.loop import LearningConfig, LoopConfig, seed_slice
+    from litl.config import Config
+    from litl.loop import seed_slice
     from litl.loop.run import run
 
     robot = litl.robots.get("biped", dx=dx)
-    config = LoopConfig(episodes=episodes, iterations=iterations, observer=observer,
-                        snapshot_stride=20, replay_capacity=500,
-                        learning=LearningConfig(max_epochs=30, patience=5))
+    config = Config().replace(observer={"kind": observer},
+                              loop={"episodes": episodes, "iterations": iterations,
+                                    "learning": {"max_epochs": 30, "patience": 5}})
     with tempfile.TemporaryDirectory() as run_dir:
         state = seed_slice(run(robot, config, run_dir, progress=False).state, 0)
     return robot, config, state
@@ -47,13 +47,12 @@ def trained_state(observer: str, episodes: int, iterations: int, dx: float):
 def state_of_run(run_dir: pathlib.Path, seed_index: int = 0):
     """(robot, config, LoopState of one seed) at the latest checkpoint of a run directory."""
     import litl.robots
-    from litl.loop import LearningConfig, LoopConfig, make_algorithm, seed_slice, stack_seeds
+    from litl.config import Config, from_dict
+    from litl.loop import make_algorithm, seed_slice, stack_seeds
     from litl.loop.checkpoint import Checkpoints
 
     saved = json.loads((run_dir / "run.json").read_text())
-    loop = dict(saved["loop"])
-    loop["learning"] = LearningConfig(**loop["learning"])
-    config = LoopConfig(**loop)
+    config = from_dict(Config, saved["config"])
     robot = litl.robots.get(saved["robot"], dx=saved["dx"])
     algorithm = make_algorithm(robot, config)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
@@ -68,13 +67,13 @@ def state_of_run(run_dir: pathlib.Path, seed_index: int = 0):
 def measure(robot, config, state, horizons) -> list[dict]:
     from litl.loop import make_algorithm
 
-    observer = config.observer
+    observer = config.observer.kind
     state = jax.tree.map(jnp.asarray, state)
     rows = []
     for mode in ("full", "stop"):
         for steps in horizons:
-            algorithm = make_algorithm(robot, dataclasses.replace(
-                config, steps=steps, feature_gradient=mode))
+            algorithm = make_algorithm(robot, config.replace(
+                sim={"steps": steps}, controller={"feature_gradient": mode}))
             _, metrics = jax.jit(algorithm.optimize)(state)
             rows.append({"observer": observer, "feature_gradient": mode, "steps": steps,
                          "controller_grad_norm": float(metrics["controller_grad_norm"]),

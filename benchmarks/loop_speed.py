@@ -5,8 +5,8 @@
     python benchmarks/loop_speed.py --seeds 1 --dx 0.03125 --steps 100 --repeats 2   # smoke
 
 For each resolution and seed count S (each in its own process, so peak memory is that of S alone),
-with the VAE observer and the default `LoopConfig` (10 iterations per episode; the learning phase
-of `LearningConfig`: minibatch 8, Adam 3e-3, at most 400 SGD steps, patience 100 steps; a 0.5
+with the VAE observer and the default `litl.config.Config` (10 iterations per episode; the learning phase
+of `litl.config.LearningConfig`: minibatch 8, Adam 3e-3, at most 400 SGD steps, patience 100 steps; a 0.5
 window around the robot), all S seeds vmapped:
 
   optimize_s         median wall time of one optimization iteration (closed-loop rollout with the
@@ -48,10 +48,11 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
     import jax
 
     import litl.robots
-    from litl.loop import LoopConfig, make_algorithm, stack_seeds
+    from litl.config import Config
+    from litl.loop import make_algorithm, stack_seeds
 
     robot = litl.robots.get("biped", dx=dx)
-    config = LoopConfig(seeds=seeds, steps=steps, snapshot_stride=20, replay_capacity=500)
+    config = Config(seeds=seeds).replace(sim={"steps": steps})   # stride 20, capacity 500
     algorithm = make_algorithm(robot, config)
     state = stack_seeds([algorithm.init(s) for s in range(seeds)])
     state, _ = jax.jit(jax.vmap(algorithm.bootstrap))(state)
@@ -60,8 +61,8 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
     optimize = jax.jit(jax.vmap(algorithm.optimize)).lower(state).compile()
     optimize_compile = time.perf_counter() - start
     # Fill the buffer while timing: 500 / (steps / 20) iterations fill it completely.
-    per_rollout = (config.steps or robot.steps) // config.snapshot_stride
-    fill = -(-config.replay_capacity // per_rollout)
+    per_rollout = (config.sim.steps or robot.steps) // config.loop.snapshot_stride
+    fill = -(-config.loop.replay_capacity // per_rollout)
     times = []
     for _ in range(max(repeats, fill)):
         (state, _), seconds = _timed(optimize, state)
@@ -77,14 +78,14 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
         phases.append(seconds)
     learn_s = statistics.median(phases)
     learn_steps = int((stats.epochs_used * stats.steps_per_epoch).max())
-    episode_opt_s = config.iterations * optimize_s
+    episode_opt_s = config.loop.iterations * optimize_s
     return {
         "seeds": seeds,
         "dx": dx,
         "particles": robot.layout.n_particles,
         "grid": list(robot.config.grid_shape),
         "window": list(algorithm.model.grid_shape),
-        "steps": config.steps or robot.steps,
+        "steps": config.sim.steps or robot.steps,
         "buffer": int(state.buffer.count.min()),
         "optimize_s": round(optimize_s, 3),
         "optimize_compile_s": round(optimize_compile, 1),

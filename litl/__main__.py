@@ -20,20 +20,19 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import OmegaConf
 
-from litl.app import SettingsError, normalize_overrides, run_experiment
-from litl.conf.schema import register, to_settings
+from litl.app import run_experiment
+from litl.config import SettingsError, from_hydra, register_with_hydra
 from litl.loop.checkpoint import CheckpointError
-from litl.loop.config import LoopConfigError
 from litl.loop.run import RunDirectoryError
 from litl.robots.catalog import UnknownRobotError
 from litl.robots.layout import LayoutError
 from litl.sim.config import ConfigError
 
 # Errors that are about the user's input, not about litl: printed as one message, no traceback.
-USER_ERRORS = (SettingsError, LoopConfigError, RunDirectoryError, CheckpointError,
+USER_ERRORS = (SettingsError, RunDirectoryError, CheckpointError,
                UnknownRobotError, LayoutError, ConfigError)
 
-register()
+register_with_hydra()
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
@@ -45,7 +44,7 @@ def _main(cfg) -> None:
         config_files = {".hydra/config.yaml": OmegaConf.to_yaml(cfg),
                         ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
                         ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task))}
-        run_experiment(to_settings(cfg), hydra_config.runtime.output_dir, config_files)
+        run_experiment(from_hydra(cfg), hydra_config.runtime.output_dir, config_files)
     except USER_ERRORS as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
         # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
@@ -75,9 +74,7 @@ def _remove_if_unused(run_dir: pathlib.Path) -> None:
         path = path.parent
 
 
-def main(argv: list[str] | None = None) -> None:
-    arguments = sys.argv[1:] if argv is None else argv
-    sys.argv = [sys.argv[0]] + normalize_overrides(arguments)
+def main() -> None:
     _main()
 
 

@@ -53,7 +53,7 @@ def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: b
         written.append(run_dir / "robot.png")
         if chosen is not None:
             written += _representation(robot, algorithm, state, run_dir,
-                                       stride=config.snapshot_stride)
+                                       stride=config.loop.snapshot_stride)
     if animation and recording is not None:
         written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
     return written

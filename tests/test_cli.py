@@ -60,13 +60,15 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
 
 
 @pytest.mark.parametrize("override, message", [
-    ("loop.episods=3", "Key 'episods' not in 'LoopConf'"),
+    ("loop.episods=3", "Key 'episods' not in 'LoopConfig'"),
     ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
     ("robot=bipd", "Could not find 'robot/bipd'"),
     ("observer=vea", "Could not find 'observer/vea'"),
     ("observer.kind=vea", "observer.kind='vea': unknown observer"),
     ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
-    ("robot.resolution=tiny", "unknown robot.resolution 'tiny'"),
+    ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
+    ("controller.kind=mpl", "Invalid value 'mpl', expected one of \\[mlp, sinusoid\\]"),
+    ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
     ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
     ("robot.dx=0.03", "must divide the domain"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
@@ -84,31 +86,31 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
 
 @pytest.mark.parametrize("override, message", [
     ("observer.latent_dim=0", "^observer.latent_dim=0: must be a positive integer"),
-    ("loop.learning.batch_size=0", "^loop.learning.batch_size must be a positive int"),
+    ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
     ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
 ])
 def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
     """The same checks as the CLI's, in process (the CLI path is covered above)."""
-    from litl.app import build_robot, compose, loop_config
+    from litl.app import build_robot, compose
     from litl.loop import make_algorithm
 
-    settings = compose([override, "+scale=smoke"])
     with pytest.raises(ValueError, match=message):
-        make_algorithm(build_robot(settings), loop_config(settings))
+        config = compose([override, "+scale=smoke"])
+        make_algorithm(build_robot(config), config)
 
 
 def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():
-    from litl.app import build_robot, compose, loop_config
+    from litl.app import build_robot, compose
 
     paper = compose(["experiment=fig4b_biped"])
     assert paper.seeds == 10 and paper.loop.episodes == 20 and paper.robot.resolution == "paper"
-    assert build_robot(paper).config.dx == 1 / 128 and loop_config(paper).codesign
-    smoke = compose(["+experiment=fig4a_arm", "+scale=smoke"])
+    assert build_robot(paper).config.dx == 1 / 128 and paper.loop.codesign
+    smoke = compose(["experiment=fig4a_arm", "+scale=smoke"])
     assert smoke.robot.name == "arm" and smoke.loop.episodes == 2 and smoke.seeds == 10
-    assert not loop_config(smoke).codesign and build_robot(smoke).config.dx == 1 / 32
+    assert not smoke.loop.codesign and build_robot(smoke).config.dx == 1 / 32
     variant = compose(["experiment=fig4a_arm", "variant=vae_one_shot"])
-    assert variant.observer.kind == "vae" and variant.loop.one_shot
+    assert variant.observer.kind == "vae" and variant.loop.schedule == "one_shot"
     sized = compose(["variant=kmeans", "size=s4"])
     assert sized.observer.kind == "kmeans" and sized.observer.clusters == 4
     demo = compose([])
@@ -116,7 +118,7 @@ def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():
 
 
 def test_every_experiment_preset_composes():
-    from litl.app import build_robot, compose, loop_config
+    from litl.app import build_robot, compose
 
     presets = sorted(p.stem for p in (ROOT / "litl" / "conf" / "experiment").glob("*.yaml"))
     assert {"fig4a_arm", "fig4b_biped", "fig4c_elephant", "fig4d_bunny", "table1_biped",
@@ -124,7 +126,6 @@ def test_every_experiment_preset_composes():
     for preset in presets:
         settings = compose([f"experiment={preset}", "+scale=smoke"])
         assert settings.experiment.name == preset and settings.experiment.paper_scale
-        loop_config(settings)
         build_robot(settings)
 
 
@@ -145,18 +146,18 @@ def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
 def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
     from omegaconf import OmegaConf
 
-    from litl.app import compose, loop_config
+    from litl.app import compose
 
     preset = OmegaConf.load(ROOT / "litl" / "conf" / "experiment" / "biped_compare.yaml")
     assert preset.hydra.sweeper.params.variant.split(",") == ["vae", "kmeans", "sinusoid"]
     for variant, observer, controller in (("vae", "vae", "mlp"), ("kmeans", "kmeans", "mlp"),
                                           ("sinusoid", "none", "sinusoid")):
-        config = loop_config(compose(["experiment=biped_compare", f"variant={variant}"]))
-        assert (config.observer, config.controller) == (observer, controller)
-        assert config.seeds >= 5 and config.episodes * config.iterations == 100
+        config = compose(["experiment=biped_compare", f"variant={variant}"])
+        assert (config.observer.kind, config.controller.kind) == (observer, controller)
+        assert config.seeds >= 5 and config.loop.episodes * config.loop.iterations == 100
     assert compose(["experiment=biped_compare"]).robot.resolution == "demo"
     # controller=sinusoid alone is the open-loop baseline (it reads no observer).
-    assert loop_config(compose(["controller=sinusoid"])).observer == "none"
+    assert compose(["controller=sinusoid"]).observer.kind == "none"
 
 
 def test_every_robot_runs_at_smoke_scale_in_one_sweep(tmp_path):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from litl.loop.config import LoopConfig
+from litl.config import Config
 from litl.report import (
     confidence_band, curves, group_runs, labels, load_runs, main, t_quantile, write_report,
 )
@@ -98,10 +98,24 @@ def test_band_skips_missing_values_and_collapses_with_one_seed():
         confidence_band(values, level=90)
 
 
-def test_report_defaults_mirror_loop_config():
-    defaults = {f.name: f.default for f in dataclasses.fields(LoopConfig)}
-    assert {field: default for field, default, _ in ABLATIONS} == {
-        field: defaults[field] for field, _, _ in ABLATIONS}
+def test_runs_recorded_by_the_config_model_are_labelled_like_older_ones():
+    """run.json holds `Config.run_settings()` (nested, dotted keys in labels); files written
+    before it (one flat 'loop' object) read the same."""
+    def current(**changes):
+        config = Config().replace(**changes)
+        return Run(path=None, settings={"robot": "biped", "dx": 1 / 32, "steps": 40,
+                                        "config": json.loads(json.dumps(config.run_settings()))},
+                   records=())
+
+    runs = [current(), current(observer={"kind": "kmeans"}), current(loop={"replay": False}),
+            current(loop={"schedule": "one_shot"}), current(loop={"alpha": 1.0}),
+            current(observer={"latent_dim": 4})]
+    assert labels(runs) == ["vae r=8", "kmeans", "vae r=8, no replay", "vae r=8, one-shot",
+                            "vae r=8, α=1", "vae r=4"]
+    old = [fake_run(), fake_run(observer="kmeans"), fake_run(replay=False),
+           fake_run(one_shot=True), fake_run(alpha=1.0), fake_run(latent_dim=4)]
+    assert labels(old) == labels(runs)
+    assert runs[3].config["loop.schedule"] == old[3].config["loop.schedule"] == "one_shot"
 
 
 def test_labels_name_observer_and_ablations():

@@ -1,23 +1,23 @@
 """Learning-in-the-loop (Algorithm 1): the run, its pure per-seed pieces, and their building blocks.
 
-    from litl.loop import LoopConfig, run
-    result = run(litl.robots.get("biped"), LoopConfig(seeds=10), "outputs/biped")
+    from litl.config import Config
+    from litl.loop import run
+    result = run(litl.robots.get("biped"), Config(seeds=10), "outputs/biped")
 
 Observers (`litl.loop.observers`) are an interface of pure functions with a registry by name.
 """
 
 from litl.loop.algorithm import Algorithm, LoopState, make_algorithm, seed_slice, stack_seeds
-from litl.loop.config import LoopConfig, LoopConfigError
 from litl.loop.observers import Learner, Observer
 from litl.loop.learning import (
-    LearningConfig, LearningStats, Split, fit_scale_masked, make_learning_phase, random_split,
+    LearningStats, Split, fit_scale_masked, make_learning_phase, random_split,
     soft_update,
 )
 from litl.loop.replay import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
 from litl.loop.run import RunDirectoryError, RunResult, load_final, run
 
 __all__ = [
-    "Algorithm", "Learner", "LearningConfig", "LearningStats", "LoopConfig", "LoopConfigError",
+    "Algorithm", "Learner", "LearningStats",
     "LoopState", "Observer", "ReplayBuffer", "RunDirectoryError", "RunResult", "Split", "add",
     "clear", "fit_scale_masked", "load_final", "make_algorithm", "make_learning_phase",
     "random_split", "replace_with", "run", "seed_slice", "soft_update", "stack_seeds",

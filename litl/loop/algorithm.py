@@ -30,7 +30,7 @@ import optax
 from flax import struct
 
 from litl.loop import observers
-from litl.loop.config import LoopConfig, LoopConfigError
+from litl.config import Config, ControllerKind, FeatureGradient, Schedule, SettingsError
 from litl.loop.learning import LearningStats, soft_update
 from litl.loop.observers import Observer
 from litl.loop.replay import ReplayBuffer, add, replace_with
@@ -123,7 +123,7 @@ class Algorithm:
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     observer: Observer
-    # How learning alternates with optimization (LoopConfig's one_shot / simultaneous ablations):
+    # How learning alternates with optimization (`loop.schedule`, the paper's ablations):
     # "alternating" (Algorithm 1: a learning phase after every episode), "one_shot" (learned once,
     # at the start), "simultaneous" (one observer step per optimization iteration, no phases) or
     # "fixed" (an observer that does not learn).
@@ -159,49 +159,51 @@ def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
                          steps_per_epoch=zero)
 
 
-def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
-    """Build the pure functions of Algorithm 1 for `robot` under `config`."""
-    dtype = jnp.dtype(config.dtype)
+def make_algorithm(robot: Robot, config: Config) -> Algorithm:
+    """Build the pure functions of Algorithm 1 for `robot` under `config` (its observer,
+    controller, sim and loop settings)."""
+    config.check_observer_kind()
+    loop = config.loop
+    dtype = jnp.dtype(config.sim.dtype)
     if dtype == jnp.float64 and not jax.config.jax_enable_x64:
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
-    steps = config.steps or robot.steps
-    stride = min(config.snapshot_stride, steps)
+    steps = config.sim.steps or robot.steps
+    stride = min(loop.snapshot_stride, steps)
     scene = robot.scene(dtype)
     sim_config, initial_state = scene.config, scene.state
     grid_shape, dim = sim_config.grid_shape, sim_config.dim
     task_loss = robot.task_loss()
-    observer = observers.make(config.observer, robot, config, sim_config, dtype)
+    observer = observers.make(config.observer.kind, robot, config, sim_config, dtype)
     learner = observer.learner
-    schedule = ("fixed" if learner is None else "one_shot" if config.one_shot else
-                "simultaneous" if config.simultaneous else "alternating")
-    if learner is not None and schedule != "simultaneous":
+    schedule = "fixed" if learner is None else loop.schedule.value
+    if learner is not None and schedule != Schedule.simultaneous:
         # A learning phase splits the buffer into a training and a validation half: with fewer
         # than two snapshots it can learn nothing, and would say so only as epochs_used 0.
-        held = config.replay_capacity if config.replay else min(config.replay_capacity,
-                                                                steps // stride)
+        held = loop.replay_capacity if loop.replay else min(loop.replay_capacity,
+                                                            steps // stride)
         if held < 2:
-            raise LoopConfigError(
+            raise SettingsError(
                 f"the learning phase needs at least 2 snapshots in the replay buffer, but it can "
-                f"hold {held} (replay_capacity={config.replay_capacity}, "
+                f"hold {held} (loop.replay_capacity={loop.replay_capacity}, "
                 f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
-                f"snapshot_stride={config.snapshot_stride}, replay={config.replay}); raise "
-                f"loop.replay_capacity or lower loop.snapshot_stride")
+                f"loop.snapshot_stride={loop.snapshot_stride}, loop.replay={loop.replay}); "
+                f"raise loop.replay_capacity or lower loop.snapshot_stride")
     # A learned observer's snapshots are windows that follow the robot (the whole grid otherwise).
     window = learner.window if learner is not None else Window.around(grid_shape, sim_config.dx,
                                                                         None)
-    if config.controller == "sinusoid":
-        controller = SinusoidController(robot.n_actuators, omega=config.controller_omega)
+    settings = config.controller
+    if settings.kind == ControllerKind.sinusoid:
+        controller = SinusoidController(robot.n_actuators, omega=settings.omega)
     else:
-        controller = MLPController(robot.n_actuators, config.controller_widths,
-                                   period=config.controller_period)
-    clip = [optax.clip_by_global_norm(config.gradient_clip)] if config.gradient_clip else []
-    controller_adam = optax.chain(*clip, optax.adam(config.learning_rate))
-    design_adam = optax.chain(*clip, optax.adam(config.design_learning_rate))
+        controller = MLPController(robot.n_actuators, settings.widths, period=settings.period)
+    clip = [optax.clip_by_global_norm(loop.gradient_clip)] if loop.gradient_clip else []
+    controller_adam = optax.chain(*clip, optax.adam(settings.learning_rate))
+    design_adam = optax.chain(*clip, optax.adam(loop.design_learning_rate))
 
     def policy(params, state, grid_velocity):
         controller_params, observer_params = params
         features = observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
-        if config.feature_gradient == "stop":
+        if settings.feature_gradient == FeatureGradient.stop:
             features = jax.lax.stop_gradient(features)
         time = state.step.astype(dtype) * sim_config.dt
         return controller.apply(controller_params, features.astype(dtype), time=time)
@@ -236,9 +238,9 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
             design_optimizer=design_adam.init(design),
             observer=observer_params,
             observer_optimizer=observer_optimizer,
-            buffer=ReplayBuffer.empty(config.replay_capacity, window.shape, dim, dtype),
+            buffer=ReplayBuffer.empty(loop.replay_capacity, window.shape, dim, dtype),
             key=jax.random.key_data(key),
-            stats=empty_stats(dtype, config.learning.max_epochs, dim),
+            stats=empty_stats(dtype, loop.learning.max_epochs, dim),
             best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
                       controller=controller_params, design=design, observer=observer_params),
             iteration=jnp.zeros((), jnp.int32),
@@ -249,7 +251,7 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
         key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
         return state.replace(key=jax.random.key_data(key)), sub
 
-    def learn(state: LoopState, alpha=config.alpha):
+    def learn(state: LoopState, alpha=loop.alpha):
         if learner is None:
             return state, state.stats
         state, key = split_key(state)
@@ -281,16 +283,16 @@ def make_algorithm(robot: Robot, config: LoopConfig) -> Algorithm:
             controller_grad, state.controller_optimizer, state.controller)
         state = state.replace(controller=optax.apply_updates(state.controller, updates),
                               controller_optimizer=controller_optimizer)
-        if config.codesign:
+        if loop.codesign:
             updates, design_optimizer = design_adam.update(
                 design_grad, state.design_optimizer, state.design)
             design = robot.project(optax.apply_updates(state.design, updates))
             state = state.replace(design=design, design_optimizer=design_optimizer)
         snapshots = trajectory.snapshots
-        keep = add if config.replay else replace_with
+        keep = add if loop.replay else replace_with
         state = state.replace(buffer=keep(state.buffer, snapshots))
         recon = jnp.full((), jnp.nan, dtype)
-        if schedule == "simultaneous":
+        if schedule == Schedule.simultaneous:
             state, key = split_key(state)
             observer_params, observer_optimizer, losses = learner.step(
                 state.observer, state.observer_optimizer, snapshots, key)

@@ -36,50 +36,11 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
+from litl.config import LearningConfig
 from litl.loop.replay import ReplayBuffer
 from litl.models.vae import (
     AutoencoderParams, ConvAutoencoder, active_units, explained_variance, loss_terms,
 )
-
-
-@dataclasses.dataclass(frozen=True)
-class LearningConfig:
-    """Hyperparameters of one learning phase.
-
-    Attributes:
-      max_epochs: N, the most passes over the training half.
-      batch_size: b, snapshots per minibatch.
-      patience: q, epochs without a lower validation loss before stopping.
-      learning_rate: Adam step size (0 is allowed: nothing is learned).
-      beta: weight of the KL term in the VAE loss.
-      max_steps: if set, also stop once this many SGD steps (minibatches) were taken.
-      patience_steps: if set, early stopping counts SGD steps instead of epochs: stop once the
-        epochs since the best validation loss hold at least this many steps. An epoch is one
-        minibatch while the buffer is small and many later, so a patience in epochs stops far too
-        early at first (one Adam step) and far too late at the end.
-    """
-
-    max_epochs: int = 100
-    batch_size: int = 8
-    patience: int = 5
-    learning_rate: float = 3e-3
-    beta: float = 1.0
-    max_steps: int | None = 400
-    patience_steps: int | None = 100
-
-    def __post_init__(self):
-        for name in ("max_epochs", "batch_size", "patience", "max_steps", "patience_steps"):
-            value = getattr(self, name)
-            if value is None and name in ("max_steps", "patience_steps"):
-                continue
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be a positive int, got {value!r}")
-        for name in ("learning_rate", "beta"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"{name} must be a number, got {value!r}")
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
 
 
 @struct.dataclass

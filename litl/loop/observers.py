@@ -9,7 +9,8 @@ frozen bundle of pure functions that the algorithm calls without knowing which o
 
 A learned observer also has a `Learner`: the grid window its snapshots are cropped to, its learning
 phase and its single SGD step (the simultaneous ablation). Observers are made by factories
-registered by name (`register`); the CLI's `observer.kind` and `LoopConfig.observer` pick one:
+registered by name (`register`); `observer.kind` (`litl.config.ObserverConfig`, the CLI's
+`observer=`) picks one:
 
 * ``vae``, ``ae``: the convolutional (variational) autoencoder of the grid velocity field (the
   paper's method; features are the encoder means);
@@ -31,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
+from litl.config import SettingsError
 from litl.loop.learning import LearningStats, make_learning_phase
 from litl.models import vae
 from litl.models.kmeans import fit_kmeans, kmeans_features
@@ -69,7 +71,8 @@ class Observer:
       features: ``features(params, state, grid_velocity) -> (n_features,)``, jittable, used at
         every simulation step.
       learner: how it learns from snapshots; None for an observer fixed at init.
-      reads: the `LoopConfig` fields it depends on (reports label runs by those that differ).
+      reads: the settings it depends on, as dotted keys of `litl.config.Config`
+        (``"observer.latent_dim"``; reports label runs by those that differ).
     """
 
     n_features: int
@@ -83,13 +86,14 @@ class Observer:
         return self.learner is not None
 
 
-Factory = Callable[..., Observer]   # factory(robot, config, sim_config, dtype) -> Observer
+# factory(robot, config, sim_config, dtype) -> Observer; config: the run's `litl.config.Config`
+Factory = Callable[..., Observer]
 _FACTORIES: dict[str, Factory] = {}
 
 
 def register(name: str, factory: Factory, replace: bool = False) -> None:
     """Make `factory(robot, config, sim_config, dtype) -> Observer` selectable as `name`
-    (`LoopConfig.observer`, CLI `observer.kind`)."""
+    (`Config.observer.kind`, CLI `observer=<name>` or `observer.kind=<name>`)."""
     if not isinstance(name, str) or not name:
         raise ValueError(f"an observer's name must be a non-empty string, got {name!r}")
     if name in _FACTORIES and not replace:
@@ -113,30 +117,33 @@ def make(name: str, robot, config, sim_config, dtype) -> Observer:
 
 def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
     """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
-    window = Window.around(sim_config.grid_shape, sim_config.dx, config.window)
-    model = vae.ConvAutoencoder(window.shape, latent_dim=config.latent_dim,
-                                channels=config.channels, activation=config.activation,
+    settings, learning = config.observer, config.loop.learning
+    window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
+    model = vae.ConvAutoencoder(window.shape, latent_dim=settings.latent_dim,
+                                channels=settings.channels, activation=settings.activation.value,
                                 variational=variational)
-    adam = optax.adam(config.learning.learning_rate)
-    learner = Learner(window=window, phase=make_learning_phase(model, config.learning),
-                      step=vae.make_train_step(model, adam, config.learning.beta),
+    adam = optax.adam(learning.learning_rate)
+    learner = Learner(window=window, phase=make_learning_phase(model, learning),
+                      step=vae.make_train_step(model, adam, learning.beta),
                       optimizer_init=lambda params: adam.init(params.network), model=model)
     return Observer(
-        n_features=config.latent_dim,
+        n_features=settings.latent_dim,
         init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
         features=vae.make_observer(model, window), learner=learner,
-        reads=("latent_dim", "window", "channels", "activation", "learning"))
+        reads=("observer.latent_dim", "observer.window", "observer.channels",
+               "observer.activation", "loop.learning"))
 
 
 def kmeans(robot, config, sim_config, dtype) -> Observer:
     """The k-means baseline: clusters of the rest configuration, fitted once per seed."""
-    if config.clusters > robot.layout.n_particles:
-        raise ValueError(f"clusters={config.clusters} exceeds the robot's "
-                         f"{robot.layout.n_particles} particles")
+    clusters = config.observer.clusters
+    if clusters > robot.layout.n_particles:
+        raise SettingsError(f"observer.clusters={clusters} exceeds the robot's "
+                            f"{robot.layout.n_particles} particles", "observer.clusters")
     rest = robot.initial_state(dtype).x
-    return Observer(n_features=2 * config.clusters * sim_config.dim,
-                    init=lambda key, seed: fit_kmeans(rest, config.clusters, seed=seed),
-                    features=kmeans_features, reads=("clusters",))
+    return Observer(n_features=2 * clusters * sim_config.dim,
+                    init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
+                    features=kmeans_features, reads=("observer.clusters",))
 
 
 def no_observer(robot, config, sim_config, dtype) -> Observer:

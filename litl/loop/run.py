@@ -1,6 +1,6 @@
 """The impure shell of a run: seeds batched with vmap, metrics, progress, checkpoints and resume.
 
-    result = run(litl.robots.get("biped"), LoopConfig(seeds=10), "outputs/biped")
+    result = run(litl.robots.get("biped"), Config(seeds=10), "outputs/biped")
 
 writes into the run directory:
 
@@ -41,7 +41,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, stack_seeds
 from litl.loop.checkpoint import Checkpoints
-from litl.loop.config import LoopConfig
+from litl.config import Config, flatten
 from litl.loop.progress import Progress
 from litl.robots.robot import Robot
 
@@ -69,7 +69,7 @@ class RunResult:
     metrics: list[dict]
 
 
-def settings(robot: Robot, config: LoopConfig, algorithm) -> dict:
+def settings(robot: Robot, config: Config, algorithm) -> dict:
     """What must match for a run directory to be resumed (`run.json`); "observer" says what the
     report needs to know of the observer (whether it learns, which settings it reads)."""
     return {
@@ -79,7 +79,7 @@ def settings(robot: Robot, config: LoopConfig, algorithm) -> dict:
         "dx": robot.config.dx,
         "dt": robot.config.dt,
         "steps": algorithm.steps,
-        "loop": json.loads(json.dumps(dataclasses.asdict(config))),
+        "config": json.loads(json.dumps(config.run_settings())),
         "observer": {"learned": algorithm.observer.learned,
                      "reads": list(algorithm.observer.reads)},
     }
@@ -105,18 +105,19 @@ def _json_value(value):
     return value if math.isfinite(value) else None
 
 
-def run(robot: Robot, config: LoopConfig, run_dir, progress: bool = True,
+def run(robot: Robot, config: Config, run_dir, progress: bool = True,
         stop_after_episodes: int | None = None,
         config_files: dict[str, str] | None = None) -> RunResult:
     """Run (or resume) Algorithm 1 for `config.seeds` seeds at once.
 
     Args:
       robot: the robot and its default task.
-      config: the loop's settings.
+      config: the run's settings (observer, controller, sim, loop, seeds, seed; robot and task
+        are the `robot` argument's).
       run_dir: directory for metrics, checkpoints and final parameters (created if needed).
       progress: show a progress bar on stderr.
       stop_after_episodes: return after this many episodes in total (the run can be resumed
-        later); None runs all `config.episodes`.
+        later); None runs all `config.loop.episodes`.
       config_files: {relative path: text} written into `run_dir` once the directory is locked
         and its settings agree with `config` (the CLI records its composed Hydra config so).
 
@@ -195,9 +196,15 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
     settings_file = run_dir / "run.json"
     if settings_file.exists():
         found = json.loads(settings_file.read_text())
-        found.setdefault("observer", wanted["observer"])   # run directories from before it
+        if "config" not in found:
+            raise RunDirectoryError(
+                f"{run_dir} holds a run written by an earlier version of litl (its run.json has "
+                f"no 'config'); it cannot be resumed. Choose a new run directory (`python -m "
+                f"litl.report` still reads it). Nothing was changed.")
         if found != wanted:
-            changed = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
+            found, wanted_flat = flatten(found), flatten(wanted)
+            changed = sorted(k for k in set(found) | set(wanted_flat)
+                             if found.get(k) != wanted_flat.get(k))
             raise RunDirectoryError(
                 f"{run_dir} holds a run with other settings (differences in {changed}); resume it "
                 f"with the same settings or choose a new run directory. Nothing was changed.")
@@ -235,18 +242,19 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
         with open(path, "w") as out:
             out.writelines(json.dumps(r) + "\n" for r in lines)
 
-    episodes = config.episodes if stop_after_episodes is None else min(
-        stop_after_episodes, config.episodes)
-    bar = Progress(config.episodes, config.iterations, enabled=progress)
+    loop = config.loop
+    episodes = loop.episodes if stop_after_episodes is None else min(
+        stop_after_episodes, loop.episodes)
+    bar = Progress(loop.episodes, loop.iterations, enabled=progress)
     start = time.perf_counter()
     before = np.asarray(counters["loss_before_retrain"], np.float64)
     with open(metrics_file, "a") as out:
         for episode in range(int(counters["episodes_done"]), episodes):
             stats = jax.tree.map(np.asarray, state.stats)
-            for iteration in range(config.iterations):
+            for iteration in range(loop.iterations):
                 state, metrics = optimize(state)
                 metrics = jax.tree.map(np.asarray, metrics)
-                step = episode * config.iterations + iteration
+                step = episode * loop.iterations + iteration
                 new = _iteration_records(metrics, stats, np.asarray(state.design), seeds,
                                          (episode, iteration, step),
                                          before if iteration == 1 else None,
@@ -274,7 +282,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
                 "learning_lines": len(learning), "loss_before_retrain": before})
     bar.close()
     checkpoints.close()
-    if episodes == config.episodes:
+    if episodes == loop.episodes:
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, seeds)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
@@ -358,7 +366,8 @@ def _warn_unhealthy(metrics, seeds, episode, iteration):
         elif in_a_row % MANY_SKIPS == 0:
             print(f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
                   f"(latest: {what}); it is stuck at its last good parameters. Lower "
-                  f"loop.learning_rate / loop.design_learning_rate or the actuator strength",
+                  f"controller.learning_rate / loop.design_learning_rate or the actuator "
+                  f"strength",
                   file=sys.stderr)
 
 
@@ -379,7 +388,7 @@ def _save_best(run_dir: pathlib.Path, state: LoopState, seeds):
     (run_dir / "best.json").write_text(json.dumps(summary, indent=1))
 
 
-def load_final(run_dir, robot: Robot, config: LoopConfig, which: str = "final") -> dict:
+def load_final(run_dir, robot: Robot, config: Config, which: str = "final") -> dict:
     """The {controller, design, observer} of every seed saved by `run`.
 
     Args:

@@ -14,29 +14,49 @@ import os
 import pathlib
 import re
 
+from litl.config import LoopConfig, flatten
+
+_METHOD = LoopConfig()
 # The paper's method: these ablation switches are named in a label only when a run departs from
-# them. They mirror `LoopConfig`'s defaults (a test keeps them equal); they are copied rather than
-# imported because `litl.loop` imports JAX, which a report never needs.
+# the method's value (`litl.config.LoopConfig`'s default).
 ABLATIONS = (
-    # (field, the method's value, how a run that departs from it is named)
-    ("replay", True, lambda value: "no replay"),
-    ("one_shot", False, lambda value: "one-shot"),
-    ("simultaneous", False, lambda value: "simultaneous"),
-    ("alpha", 0.5, lambda value: f"α={value:g}"),
-    ("codesign", True, lambda value: "control only"),
+    # (setting, the method's value, how a run that departs from it is named)
+    ("loop.replay", _METHOD.replay, lambda value: "no replay"),
+    ("loop.schedule", _METHOD.schedule.value, lambda value: str(value).replace("_", "-")),
+    ("loop.alpha", _METHOD.alpha, lambda value: f"α={value:g}"),
+    ("loop.codesign", _METHOD.codesign, lambda value: "control only"),
 )
-# Run directories written before run.json recorded its observer's reads (`Observer.reads`).
-LEGACY_READS = {"vae": ("latent_dim", "window", "channels", "activation", "learning"),
-                "ae": ("latent_dim", "window", "channels", "activation", "learning"),
-                "kmeans": ("clusters",)}
-# Settings some observer reads: they distinguish runs only where the run's observer reads them.
-OBSERVER_SETTINGS = ("latent_dim", "window", "channels", "activation", "learning", "clusters")
+# run.json written before litl.config: the loop's settings in one flat object. Where each of its
+# keys lives now (one_shot / simultaneous became loop.schedule).
+LEGACY_KEYS = {
+    "episodes": "loop.episodes", "iterations": "loop.iterations", "steps": "sim.steps",
+    "dtype": "sim.dtype", "observer": "observer.kind", "latent_dim": "observer.latent_dim",
+    "window": "observer.window", "channels": "observer.channels",
+    "activation": "observer.activation", "clusters": "observer.clusters",
+    "controller": "controller.kind", "controller_widths": "controller.widths",
+    "controller_omega": "controller.omega", "controller_period": "controller.period",
+    "feature_gradient": "controller.feature_gradient",
+    "learning_rate": "controller.learning_rate",
+    "design_learning_rate": "loop.design_learning_rate", "gradient_clip": "loop.gradient_clip",
+    "snapshot_stride": "loop.snapshot_stride", "replay_capacity": "loop.replay_capacity",
+    "alpha": "loop.alpha", "replay": "loop.replay", "codesign": "loop.codesign",
+    "learning": "loop.learning", "seeds": "seeds", "seed": "seed",
+}
+# Observers whose run.json predates `Observer.reads`.
+LEGACY_READS = {"vae": ("observer.latent_dim", "observer.window", "observer.channels",
+                        "observer.activation", "loop.learning"),
+                "ae": ("observer.latent_dim", "observer.window", "observer.channels",
+                       "observer.activation", "loop.learning"),
+                "kmeans": ("observer.clusters",)}
 OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
-IGNORED = ("seed", "seeds")
-# How a setting that differs between runs is named in their labels.
-SHORT_NAMES = (("latent_dim", "r"), ("clusters", "k"), ("learning_rate", "lr"),
-               ("design_learning_rate", "design lr"))
+IGNORED = ("seed", "seeds", "sim.steps", "observer.kind", "controller.kind")
+# Settings that matter for one controller only.
+CONTROLLER_SETTINGS = {"controller.widths": "mlp", "controller.period": "mlp",
+                       "controller.feature_gradient": "mlp", "controller.omega": "sinusoid"}
+# How a setting that differs between runs is named in their labels (others by their key).
+SHORT_NAMES = (("observer.latent_dim", "r"), ("observer.clusters", "k"),
+               ("controller.learning_rate", "lr"), ("loop.design_learning_rate", "design lr"))
 REQUIRED_KEYS = ("seed", "step", "task_loss")
 
 
@@ -50,7 +70,8 @@ class Run:
 
     Attributes:
       path: the run directory.
-      settings: the parsed `run.json` (``robot``, ``dx``, ``steps``, ..., ``loop``).
+      settings: the parsed `run.json` (``robot``, ``dx``, ``steps``, ..., ``config``; see
+        `litl.loop.run`).
       records: the parsed lines of `metrics.jsonl`, in file order; non-finite and null floats
         are NaN.
       learning: the parsed lines of `learning.jsonl` (one per learning phase and seed; empty when
@@ -67,16 +88,24 @@ class Run:
         return str(self.settings.get("robot", "robot"))
 
     @property
-    def loop(self) -> dict:
-        return self.settings.get("loop", {})
+    def config(self) -> dict:
+        """The run's settings by dotted key (``"loop.alpha"``, ``"observer.kind"``), as
+        `litl.config.Config.run_settings` names them (older run.json files translated)."""
+        if isinstance(self.settings.get("config"), dict):
+            return flatten(self.settings["config"])
+        legacy = dict(self.settings.get("loop", {}))
+        one_shot, simultaneous = legacy.pop("one_shot", False), legacy.pop("simultaneous", False)
+        schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
+        moved = {LEGACY_KEYS.get(key, key): value for key, value in legacy.items()}
+        return {**flatten(moved), "loop.schedule": schedule}
 
     @property
     def observer(self) -> str:
-        return str(self.loop.get("observer", "vae"))
+        return str(self.config.get("observer.kind", "vae"))
 
     @property
     def controller(self) -> str:
-        return str(self.loop.get("controller", "mlp"))
+        return str(self.config.get("controller.kind", "mlp"))
 
     @property
     def head(self) -> str:
@@ -90,15 +119,15 @@ class Run:
         known = self.settings.get("observer", {}).get("learned")
         if known is not None:
             return bool(known)
-        return "learning" in LEGACY_READS.get(self.observer, ())               # older run.json
+        return "loop.learning" in LEGACY_READS.get(self.observer, ())          # older run.json
 
     @property
     def observer_reads(self) -> tuple[str, ...]:
-        """The loop settings the run's observer depends on (`Observer.reads`)."""
+        """The settings the run's observer depends on (`Observer.reads`, dotted keys)."""
         known = self.settings.get("observer", {}).get("reads")
-        if known is not None:
-            return tuple(known)
-        return LEGACY_READS.get(self.observer, ())                              # older run.json
+        if known is None:
+            return LEGACY_READS.get(self.observer, ())                          # older run.json
+        return tuple(LEGACY_KEYS.get(key, key) for key in known)
 
     @property
     def seeds(self) -> list[int]:
@@ -166,8 +195,9 @@ def load_run(path) -> Run:
         settings = json.loads((path / "run.json").read_text())
     except (OSError, json.JSONDecodeError) as error:
         raise ReportError(f"{path / 'run.json'}: cannot be read ({error})") from None
-    if not isinstance(settings, dict) or not isinstance(settings.get("loop", {}), dict):
-        raise ReportError(f"{path / 'run.json'}: expected an object with a 'loop' object")
+    if not isinstance(settings, dict) or not isinstance(settings.get("config",
+                                                                     settings.get("loop")), dict):
+        raise ReportError(f"{path / 'run.json'}: expected an object with a 'config' object")
     return Run(path=path, settings=settings, records=read_metrics(path / "metrics.jsonl"),
                learning=read_learning(path / "learning.jsonl"))
 
@@ -205,33 +235,20 @@ def load_runs(path) -> list[Run]:
     return [load_run(run_dir) for run_dir in run_dirs]
 
 
-def _flatten(settings: dict, prefix: str = "") -> dict:
-    flat = {}
-    for key, value in settings.items():
-        if isinstance(value, dict):
-            flat.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = value
-    return flat
-
-
 def _relevant(name: str, run: Run) -> bool:
-    # Settings of an observer a run does not use cannot distinguish it.
-    root = name.split(".")[0]
-    if root in OBSERVER_SETTINGS or root in run.observer_reads:
-        return root in run.observer_reads
-    if name in ("controller_widths", "controller_period", "feature_gradient"):
-        return run.controller == "mlp"
-    if name == "controller_omega":
-        return run.controller == "sinusoid"
-    # The observer (or open-loop controller) heads every label; ablation switches are named by
-    # `ABLATIONS`.
-    return name not in (*IGNORED, "observer", "controller", *(field for field, _, _ in ABLATIONS))
+    """Whether setting `name` can tell `run` apart: settings of an observer or controller a run
+    does not use cannot; the observer (or open-loop controller) heads every label and ablation
+    switches are named by `ABLATIONS`."""
+    if name.startswith(("observer.", "loop.learning.")) and name not in IGNORED:
+        return any(name == read or name.startswith(read + ".") for read in run.observer_reads)
+    if name in CONTROLLER_SETTINGS:
+        return run.controller == CONTROLLER_SETTINGS[name]
+    return name not in (*IGNORED, *(setting for setting, _, _ in ABLATIONS))
 
 
-def _ablation_applies(field: str, run: Run) -> bool:
+def _ablation_applies(setting: str, run: Run) -> bool:
     # Without a learned observer there is no learning phase to ablate, only the design.
-    return field == "codesign" or run.learned
+    return setting == "loop.codesign" or run.learned
 
 
 def _format(value, name: str = "") -> str:
@@ -245,12 +262,10 @@ def _format(value, name: str = "") -> str:
     return str(value)
 
 
-def _comparable(settings: dict) -> dict:
-    """A run's settings that may tell it apart from other runs of the same robot."""
-    loop = _flatten(settings.get("loop", {}))
-    # The loop's `steps` may be None (the robot's default); the top level holds the steps used.
-    loop.pop("steps", None)
-    return {**loop, **{k: v for k, v in settings.items() if k in ("dx", "dt", "steps")}}
+def _comparable(run: Run) -> dict:
+    """A run's settings that may tell it apart from other runs of the same robot (the steps
+    used, not `sim.steps`, which may be null: the robot's default)."""
+    return {**run.config, **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")}}
 
 
 def labels(runs: list[Run]) -> list[str]:
@@ -266,8 +281,8 @@ def labels(runs: list[Run]) -> list[str]:
     names = dict(SHORT_NAMES)
     result = [""] * len(runs)
     for indices in by_robot.values():
-        settings = [_comparable(runs[i].settings) for i in indices]
-        keys = sorted({key for s in settings for key in s})
+        settings = [_comparable(runs[i]) for i in indices]
+        keys = sorted({key for s in settings for key in s}, key=lambda key: names.get(key, key))
         varying = []
         for key in keys:
             values = {json.dumps(s.get(key), sort_keys=True)
@@ -278,9 +293,10 @@ def labels(runs: list[Run]) -> list[str]:
             run = runs[i]
             head = [run.head] + [f"{names.get(key, key)}={_format(s[key], key)}"
                                      for key in varying if _relevant(key, run) and key in s]
-            tail = [name(run.loop[field]) for field, default, name in ABLATIONS
-                    if field in run.loop and run.loop[field] != default
-                    and _ablation_applies(field, run)]
+            config = run.config
+            tail = [name(config[key]) for key, default, name in ABLATIONS
+                    if key in config and config[key] != default
+                    and _ablation_applies(key, run)]
             result[i] = ", ".join([" ".join(head)] + tail)
     return result
 

@@ -187,12 +187,12 @@ def test_soft_update(two_params):
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"max_epochs": 0}, "max_epochs must be a positive int"),
-        ({"batch_size": 2.0}, "batch_size must be a positive int"),
-        ({"patience": -1}, "patience must be a positive int"),
-        ({"learning_rate": -1e-3}, "learning_rate must be finite and >= 0"),
-        ({"learning_rate": float("nan")}, "learning_rate must be finite and >= 0"),
-        ({"beta": "1"}, "beta must be a number"),
+        ({"max_epochs": 0}, "^loop.learning.max_epochs=0: must be a positive integer"),
+        ({"batch_size": 2.0}, "batch_size=2.0: must be a positive integer"),
+        ({"patience": -1}, "patience=-1: must be a positive integer"),
+        ({"learning_rate": -1e-3}, "learning_rate=-0.001: must be a number >= 0"),
+        ({"learning_rate": float("nan")}, "learning_rate=nan: must be a number >= 0"),
+        ({"beta": "1"}, "beta='1': must be a number >= 0"),
     ],
 )
 def test_bad_config(kwargs, message):
@@ -248,7 +248,7 @@ def test_patience_and_budget_in_sgd_steps(learn, params):
     # Stops at the 14-step budget (7 epochs) or 3 epochs (6 steps) after its best one.
     assert epochs == 7 or epochs - best == 3
     assert epochs >= 3   # a patience of one epoch would have allowed stopping after epoch 2
-    with pytest.raises(ValueError, match="patience_steps must be a positive int"):
+    with pytest.raises(ValueError, match="patience_steps=0: must be a positive integer"):
         LearningConfig(patience_steps=0)
 
 

@@ -12,7 +12,8 @@ import jax
 import jax.numpy as jnp
 import pytest
 
-from litl.loop import LoopConfig, observers
+from litl.config import SettingsError
+from litl.loop import observers
 from tests.loop.tiny import tiny_config, tiny_robot
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -28,7 +29,7 @@ def test_builtin_observers_through_the_interface():
     config = robot.config
     for name, n_features, learned in (("vae", 4, True), ("ae", 4, True), ("kmeans", 2 * 3 * 2, False),
                                       ("none", 0, False)):
-        observer = observers.make(name, robot, tiny_config(observer=name), config, jnp.float32)
+        observer = observers.make(name, robot, tiny_config(observer={"kind": name}), config, jnp.float32)
         assert (observer.n_features, observer.learned) == (n_features, learned), name
         params = observer.init(jax.random.key(0), 0)
         state = robot.initial_state()
@@ -41,8 +42,9 @@ def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
         observers.register("vae", lambda *args: None)
     with pytest.raises(ValueError, match="non-empty string"):
         observers.register("", lambda *args: None)
-    with pytest.raises(ValueError, match="unknown observer; choose one of .*kmeans"):
-        LoopConfig(observer="vea")
+    with pytest.raises(SettingsError, match="observer.kind='vea': unknown observer; choose one "
+                                            "of .*kmeans"):
+        tiny_config(observer={"kind": "vea"}).check_observer_kind()
 
 
 def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
@@ -56,7 +58,8 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     settings = json.loads((run_dir / "run.json").read_text())
-    assert settings["observer"] == {"learned": False, "reads": ["latent_dim"]}
+    assert settings["observer"] == {"learned": False, "reads": ["observer.latent_dim"]}
+    assert settings["config"]["observer"]["kind"] == "random_projection"
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert len(records) == 2 and all(r["recon_loss_val"] is None for r in records)
     for name in ("robot.png", "robot.gif", "task_loss.png"):

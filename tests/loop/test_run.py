@@ -31,7 +31,7 @@ def read_metrics(run_dir):
 
 @pytest.fixture(scope="module")
 def vae_run(tmp_path_factory):
-    return run(tiny_robot(), tiny_config(episodes=3), tmp_path_factory.mktemp("vae"), progress=False)
+    return run(tiny_robot(), tiny_config(loop={"episodes": 3}), tmp_path_factory.mktemp("vae"), progress=False)
 
 
 def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
@@ -61,7 +61,7 @@ def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
 
 
 def test_final_parameters_are_saved_and_load(vae_run):
-    final = load_final(vae_run.run_dir, tiny_robot(), tiny_config(episodes=3))
+    final = load_final(vae_run.run_dir, tiny_robot(), tiny_config(loop={"episodes": 3}))
     np.testing.assert_array_equal(final["design"], vae_run.state.design)
     for a, b in zip(jax.tree.leaves(final["controller"]), jax.tree.leaves(vae_run.state.controller)):
         np.testing.assert_array_equal(a, b)
@@ -85,7 +85,7 @@ def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
     written = len(read_metrics(run_dir))
     assert written < len(vae_run.metrics), "the run finished before it was killed"
 
-    resumed = run(tiny_robot(), tiny_config(episodes=3), run_dir, progress=False)
+    resumed = run(tiny_robot(), tiny_config(loop={"episodes": 3}), run_dir, progress=False)
     assert without_time(read_metrics(run_dir)) == without_time(read_metrics(vae_run.run_dir))
     learning = lambda d: without_time([json.loads(l) for l in (d / "learning.jsonl").open()])
     assert learning(run_dir) == learning(vae_run.run_dir)
@@ -95,13 +95,13 @@ def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
 
 def test_a_run_directory_refuses_other_settings(vae_run):
     before = (vae_run.run_dir / "metrics.jsonl").read_text()
-    with pytest.raises(RunDirectoryError, match="other settings .*'loop'.*choose a new run directory"):
-        run(tiny_robot(), tiny_config(episodes=3, alpha=0.9), vae_run.run_dir, progress=False)
+    with pytest.raises(RunDirectoryError, match="other settings .*'config.loop.alpha'.*choose a new run directory"):
+        run(tiny_robot(), tiny_config(loop={"episodes": 3, "alpha": 0.9}), vae_run.run_dir, progress=False)
     assert (vae_run.run_dir / "metrics.jsonl").read_text() == before
 
 
 def test_kmeans_baseline_runs_without_learning(tmp_path):
-    result = run(tiny_robot(), tiny_config(observer="kmeans"), tmp_path, progress=False)
+    result = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}), tmp_path, progress=False)
     assert len(result.metrics) == 2 * 2 * 2
     for r in result.metrics:
         assert np.isfinite(r["task_loss"]) and r["recon_loss_val"] is None
@@ -110,10 +110,11 @@ def test_kmeans_baseline_runs_without_learning(tmp_path):
 
 
 def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
-    from litl.loop.config import LoopConfigError
+    from litl.config import SettingsError
     from litl.report import write_report
 
-    config = tiny_config(observer="none", controller="sinusoid", learning_rate=0.1)
+    config = tiny_config(observer={"kind": "none"},
+                         controller={"kind": "sinusoid", "learning_rate": 0.1})
     result = run(tiny_robot(), config, tmp_path, progress=False)
     losses = [r["task_loss"] for r in result.metrics if r["seed"] == 0]
     assert all(np.isfinite(losses)) and losses[-1] != losses[0]     # it does optimize
@@ -121,8 +122,8 @@ def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
     assert result.state.controller["params"]["weights"].shape == (2, tiny_robot().n_actuators, 4)
     report = write_report(tmp_path)
     assert [g["label"] for g in report.summary["groups"]] == ["sinusoid"]
-    with pytest.raises(LoopConfigError, match="reads no observer.*observer none"):
-        tiny_config(controller="sinusoid")
+    with pytest.raises(SettingsError, match="reads no observer.*observer none"):
+        tiny_config(controller={"kind": "sinusoid"})
 
 
 def test_learned_observer_sees_a_window_that_follows_the_robot():
@@ -131,7 +132,7 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
     from litl.loop.algorithm import make_algorithm
 
     robot = litl.robots.get("biped", dx=1 / 64)
-    algorithm = make_algorithm(robot, tiny_config(seeds=1, steps=20, window=0.5))
+    algorithm = make_algorithm(robot, tiny_config(seeds=1, sim={"steps": 20}, observer={"window": 0.5}))
     assert algorithm.model.grid_shape == (32, 32)
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     fields = np.asarray(state.buffer.fields[: int(state.buffer.count)])
@@ -145,7 +146,8 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
 
 
 def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
-    config = tiny_config(observer="ae", simultaneous=True, codesign=False)
+    config = tiny_config(observer={"kind": "ae"},
+                         loop={"schedule": "simultaneous", "codesign": False})
     result = run(tiny_robot(), config, tmp_path, progress=False)
     first = result.metrics[0]
     for r in result.metrics:
@@ -158,7 +160,7 @@ def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
 
 
 def test_one_shot_observer_without_replay(tmp_path):
-    config = tiny_config(one_shot=True, replay=False)
+    config = tiny_config(loop={"schedule": "one_shot", "replay": False})
     result = run(tiny_robot(), config, tmp_path, progress=False)
     for seed in (0, 1):
         stats = {(r["recon_loss_val"], r["learning_epochs"]) for r in result.metrics if r["seed"] == seed}

@@ -55,7 +55,7 @@ def lines(path):
 
 
 def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd):
-    config = tiny_config(episodes=2, seeds=1)
+    config = tiny_config(loop={"episodes": 2}, seeds=1)
     directory = tmp_path / "damaged"
     reference = run(tiny_robot(), config, directory, progress=False).metrics
     checkpoints = directory / "checkpoints"

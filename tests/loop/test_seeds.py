@@ -34,7 +34,7 @@ def episode_of(algorithm, batched):
 
 
 def test_vmapped_seeds_equal_sequential_runs(x64):
-    algorithm = make_algorithm(tiny_robot(), tiny_config(dtype="float64"))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
     seeds = (3, 4)
     together, measured = episode_of(algorithm, True)(
         stack_seeds([algorithm.init(s) for s in seeds]))
@@ -55,7 +55,8 @@ SHARDED = """
 import json, sys, jax
 from litl.loop.run import run, shard_seeds
 from tests.loop.tiny import tiny_config, tiny_robot
-SHARDED_CONFIG = tiny_config(episodes=1, dtype="float64", observer="kmeans")
+SHARDED_CONFIG = tiny_config(loop={"episodes": 1}, sim={"steps": 40, "dtype": "float64"},
+                             observer={"kind": "kmeans"})
 assert jax.device_count() == 2
 placed = shard_seeds({"x": jax.numpy.zeros((2, 3))})["x"]
 result = run(tiny_robot(), SHARDED_CONFIG, sys.argv[1], progress=False)
@@ -72,7 +73,8 @@ def test_seeds_spread_over_two_devices_give_the_same_run(tmp_path, x64):
     assert out.returncode == 0, out.stderr[-3000:]
     sharded = json.loads(out.stdout.strip().splitlines()[-1])
     assert sharded["devices"] == 2
-    local = run(tiny_robot(), tiny_config(episodes=1, dtype="float64", observer="kmeans"),
+    local = run(tiny_robot(), tiny_config(loop={"episodes": 1}, sim={"steps": 40, "dtype": "float64"},
+                             observer={"kind": "kmeans"}),
                 tmp_path / "one", progress=False)
     np.testing.assert_allclose(sharded["losses"], [m["task_loss"] for m in local.metrics],
                                rtol=1e-6)

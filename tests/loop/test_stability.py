@@ -20,7 +20,7 @@ def _same(a, b):
 
 
 def test_a_blown_up_iteration_updates_nothing_and_says_why():
-    algorithm = make_algorithm(tiny_robot(), tiny_config(observer="kmeans"))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
     state = algorithm.init(0)
     # A design far outside the bounds (and the time step's range) blows the rollout up.
     blown = state.replace(design=jnp.full_like(state.design, 1e7))
@@ -36,7 +36,7 @@ def test_a_blown_up_iteration_updates_nothing_and_says_why():
 
 
 def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():
-    algorithm = make_algorithm(tiny_robot(), tiny_config(observer="kmeans"))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
     state = algorithm.init(0)
     after, metrics = jax.jit(algorithm.optimize)(state)
     assert int(metrics["skipped"]) == 0 and int(after.consecutive_skips) == 0
@@ -56,7 +56,7 @@ def _falling_robot():
 
 
 def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, capsys):
-    config = tiny_config(observer="kmeans", iterations=3, episodes=2)
+    config = tiny_config(observer={"kind": "kmeans"}, loop={"iterations": 3, "episodes": 2})
     result = run(_falling_robot(), config, tmp_path, progress=False)
     err = capsys.readouterr().err
     assert "particles left the grid" in err and "iteration skipped" in err
@@ -76,7 +76,8 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
 
 
 def test_best_parameters_are_saved_and_pictures_work_with_a_clocked_controller(tmp_path):
-    config = tiny_config(controller_period=0.05, seeds=1, episodes=1, iterations=3)
+    config = tiny_config(controller={"period": 0.05}, seeds=1,
+                         loop={"episodes": 1, "iterations": 3})
     result = run(tiny_robot(), config, tmp_path, progress=False)
     best = json.loads((tmp_path / "best.json").read_text())[0]
     losses = [r["task_loss"] for r in result.metrics]

@@ -6,18 +6,19 @@
 import sys
 
 import litl.robots
-from litl.loop.config import LoopConfig
-from litl.loop.learning import LearningConfig
+from litl.config import Config
 from litl.loop.run import run
 
-
-def tiny_config(**changes) -> LoopConfig:
-    settings = dict(episodes=2, iterations=2, seeds=2, steps=40, latent_dim=4,
-                    channels=(4, 4, 8, 8, 8), clusters=3, controller_widths=(16,),
-                    snapshot_stride=10, replay_capacity=12, learning_rate=0.05,
-                    learning=LearningConfig(patience_steps=None, max_steps=None, max_epochs=3, batch_size=4, patience=2))
-    settings.update(changes)
-    return LoopConfig(**settings)
+def tiny_config(**changes) -> Config:
+    """The tiny run's config with `changes` (`Config.replace`: ``loop={"episodes": 3}``)."""
+    return Config().replace(
+        seeds=2, sim={"steps": 40},
+        observer={"latent_dim": 4, "channels": (4, 4, 8, 8, 8), "clusters": 3},
+        controller={"widths": (16,), "learning_rate": 0.05},
+        loop={"episodes": 2, "iterations": 2, "snapshot_stride": 10, "replay_capacity": 12,
+              "learning": {"patience_steps": None, "max_steps": None, "max_epochs": 3,
+                           "batch_size": 4, "patience": 2}},
+    ).replace(**changes)
 
 
 def tiny_robot():
@@ -26,4 +27,4 @@ def tiny_robot():
 
 if __name__ == "__main__":
     episodes = int(sys.argv[2]) if len(sys.argv) > 2 else 3
-    run(tiny_robot(), tiny_config(episodes=episodes), sys.argv[1], progress=False)
+    run(tiny_robot(), tiny_config(loop={"episodes": episodes}), sys.argv[1], progress=False)

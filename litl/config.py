@@ -1,0 +1,476 @@
+"""litl's one config model: frozen dataclasses shared by the Python API and the Hydra CLI.
+
+The tree mirrors the command line: `Config.loop.episodes` is `loop.episodes=...`,
+`Config.observer.kind` is `observer=...` / `observer.kind=...`. The defaults here are the only
+ones (the YAML files under `litl/conf` select groups and set what a choice changes); every value
+is checked once, when its dataclass is built, and an error names the key as typed on the command
+line:
+
+    from litl.config import Config
+    config = Config().replace(observer={"kind": "kmeans"}, loop={"episodes": 3}, seeds=10)
+    result = litl.loop.run(litl.robots.get("biped"), config, "outputs/biped")
+
+`register_with_hydra` puts the same classes in Hydra's ConfigStore, where they type every key:
+a typo, a wrong type or an unknown kind (`controller.kind=mpl`) fails when the config is
+composed, naming the choices. Observer kinds are the one open set (observers of your own register
+by name, `litl.loop.observers.register`), so `observer.kind` is checked against that registry.
+
+This module imports no JAX, so that `litl.report` can read the defaults without it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from dataclasses import dataclass, field
+from typing import Optional, Tuple
+
+
+class SettingsError(ValueError):
+    """A setting litl cannot use; the message names its key (as typed on the command line) and
+    says how to fix it.
+
+    Attributes:
+      key: the dotted key at fault (``"loop.episodes"``), or None when several are.
+    """
+
+    def __init__(self, message: str, key: str | None = None):
+        super().__init__(message)
+        self.key = key
+
+
+class ControllerKind(enum.StrEnum):
+    """What maps features to actuation: an MLP (closed loop) or the open-loop sinusoid baseline."""
+    mlp = "mlp"
+    sinusoid = "sinusoid"
+
+
+class Schedule(enum.StrEnum):
+    """How the observer's learning alternates with optimization (the paper's ablations)."""
+    alternating = "alternating"     # Algorithm 1: a learning phase after every episode
+    one_shot = "one_shot"           # learn once, from the initial rollout, never again
+    simultaneous = "simultaneous"   # one observer step per optimization iteration, no phases
+
+
+class TaskKind(enum.StrEnum):
+    default = "default"             # the robot's own task (see the README's robot table)
+    locomotion = "locomotion"       # distance walked
+    velocity = "velocity"           # mean forward velocity
+
+
+class Resolution(enum.StrEnum):
+    """Grid spacing when robot.dx is null: paper (1/128 2D, 1/32 3D), demo (1/64, 1/32), smoke
+    (1/32, 1/16)."""
+    paper = "paper"
+    demo = "demo"
+    smoke = "smoke"
+
+
+class Activation(enum.StrEnum):
+    elu = "elu"                     # keeps units alive on the mostly empty field
+    relu = "relu"                   # the paper's
+
+
+class FeatureGradient(enum.StrEnum):
+    stop = "stop"                   # the task-loss gradient treats the features as constants
+    full = "full"                   # the paper's end-to-end backpropagation through them
+
+
+class DType(enum.StrEnum):
+    float32 = "float32"
+    float64 = "float64"             # needs jax.enable_x64
+
+
+RESOLUTIONS = {Resolution.paper: {2: None, 3: None}, Resolution.demo: {2: 1 / 64, 3: 1 / 32},
+               Resolution.smoke: {2: 1 / 32, 3: 1 / 16}}
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class _Checked:
+    """Shared by the config dataclasses: `KEY` is their place in the tree (``"loop.learning"``);
+    `__post_init__` normalizes lists to tuples and strings to their enums, then `check`s."""
+
+    KEY = ""
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            kind = _enum_of(f.type)
+            if kind is not None and value is not None and not isinstance(value, kind):
+                try:
+                    value = kind(value)
+                except ValueError:
+                    self._invalid(f.name, f"choose one of {[k.value for k in kind]}")
+            if isinstance(value, list):
+                value = tuple(value)
+            object.__setattr__(self, f.name, value)
+        self.check()
+
+    def check(self) -> None:
+        """Raise `SettingsError` for a value that cannot be used."""
+
+    def _key(self, name: str) -> str:
+        return f"{self.KEY}.{name}" if self.KEY else name
+
+    def _invalid(self, name: str, text: str):
+        raise SettingsError(f"{self._key(name)}={getattr(self, name)!r}: {text}", self._key(name))
+
+    def _positive_ints(self, *names, optional=()):
+        for name in names:
+            value = getattr(self, name)
+            if value is None and name in optional:
+                continue
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                self._invalid(name, "must be a positive integer" +
+                              (", or null for none" if name in optional else ""))
+
+    def _positive_numbers(self, *names, optional=(), zero=False):
+        for name in names:
+            value = getattr(self, name)
+            if value is None and name in optional:
+                continue
+            if not (_number(value) and (value >= 0 if zero else value > 0)):
+                self._invalid(name, ("must be a number >= 0" if zero else
+                                     "must be a positive number") +
+                              (", or null for none" if name in optional else ""))
+
+    def replace(self, **changes):
+        """A copy with `changes`; a dict for a nested config changes only the keys it names:
+        ``config.replace(loop={"episodes": 3}, seeds=2)``."""
+        merged = {}
+        for name, value in changes.items():
+            current = getattr(self, name)
+            if isinstance(value, dict) and dataclasses.is_dataclass(current):
+                value = current.replace(**value)
+            merged[name] = value
+        return dataclasses.replace(self, **merged)
+
+
+def _enum_of(annotation):
+    text = str(annotation)
+    for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, FeatureGradient,
+                 DType):
+        if kind.__name__ in text:
+            return kind
+    return None
+
+
+@dataclass(frozen=True)
+class RobotConfig(_Checked):
+    """Which robot the CLI builds (`litl.app.build_robot`); the Python API passes a `Robot`.
+
+    Attributes:
+      name: a registered robot (`litl.robots.names()`).
+      dx: grid spacing; None: the `resolution`'s.
+      resolution: grid spacing used when dx is None (`Resolution`).
+      module: a module to import first, which registers robots of your own
+        (`litl.robots.register`); then name=<its name>.
+    """
+
+    KEY = "robot"
+    name: str = "biped"
+    dx: Optional[float] = None
+    resolution: Resolution = Resolution.demo
+    module: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class TaskConfig(_Checked):
+    KEY = "task"
+    kind: TaskKind = TaskKind.default
+
+
+@dataclass(frozen=True)
+class ObserverConfig(_Checked):
+    """What the controller sees.
+
+    Attributes:
+      kind: a registered observer (`litl.loop.observers`): vae (the method), ae (plain
+        autoencoder), kmeans (baseline), none (no features: open-loop control), or your own.
+      latent_dim: r, latent variables of the (V)AE.
+      window: side (domain units) of the grid window a (V)AE sees, centred on the robot's
+        particle centroid and rounded up to a multiple of 32 nodes (`litl.models.window`);
+        None: the whole grid, as in the paper. The replay buffer stores these windows.
+      channels: widths of the five encoder convolutions.
+      activation: the (V)AE's activation (`Activation`).
+      clusters: k, clusters of the k-means observer.
+      module: a module to import first, which registers observers of your own
+        (`litl.loop.observers.register`); then kind=<its name>.
+    """
+
+    KEY = "observer"
+    kind: str = "vae"
+    latent_dim: int = 8
+    window: Optional[float] = 0.5
+    channels: Tuple[int, ...] = (8, 16, 32, 32, 64)
+    activation: Activation = Activation.elu
+    clusters: int = 6
+    module: Optional[str] = None
+
+    def check(self):
+        self._positive_ints("latent_dim", "clusters")
+        self._positive_numbers("window", optional=("window",))
+        if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1
+                                              for c in self.channels):
+            self._invalid("channels", "needs 5 positive integer widths")
+
+
+@dataclass(frozen=True)
+class ControllerConfig(_Checked):
+    """The controller θ and its optimizer.
+
+    Attributes:
+      kind: mlp (closed loop: an MLP of the observer's features) or sinusoid (the open-loop
+        baseline `litl.models.open_loop.SinusoidController`; needs observer none).
+      widths: hidden layers of the MLP.
+      omega: angular frequency (rad/s) of the sinusoid controller.
+      period: if set, the MLP also sees (sin, cos) of a clock of this period (s).
+      learning_rate: Adam step size of θ.
+      feature_gradient: stop treats the observer's features as constants in the task-loss
+        gradient (it reaches θ through the actuation's effect on the motion only); full also
+        differentiates the features w.r.t. the simulated grid (the paper's end-to-end
+        backpropagation), which explodes with the horizon (`benchmarks/gradient_horizon.py`).
+    """
+
+    KEY = "controller"
+    kind: ControllerKind = ControllerKind.mlp
+    widths: Tuple[int, ...] = (64, 64)
+    omega: float = 30.0
+    period: Optional[float] = None
+    learning_rate: float = 0.01
+    feature_gradient: FeatureGradient = FeatureGradient.stop
+
+    def check(self):
+        if not all(isinstance(w, int) and w >= 1 for w in self.widths):
+            self._invalid("widths", "every width must be a positive integer")
+        self._positive_numbers("omega", "learning_rate")
+        self._positive_numbers("period", optional=("period",))
+
+
+@dataclass(frozen=True)
+class SimSettings(_Checked):
+    """Attributes: steps per rollout (None: the robot's episode length); dtype of the run."""
+
+    KEY = "sim"
+    steps: Optional[int] = None
+    dtype: DType = DType.float32
+
+    def check(self):
+        self._positive_ints("steps", optional=("steps",))
+
+
+@dataclass(frozen=True)
+class LearningConfig(_Checked):
+    """Hyperparameters of one learning phase.
+
+    Attributes:
+      max_epochs: N, the most passes over the training half.
+      batch_size: b, snapshots per minibatch.
+      patience: q, epochs without a lower validation loss before stopping (used when
+        patience_steps is None).
+      learning_rate: Adam step size (0 is allowed: nothing is learned).
+      beta: weight of the KL term in the VAE loss.
+      max_steps: if set, also stop once this many SGD steps (minibatches) were taken.
+      patience_steps: if set, early stopping counts SGD steps instead of epochs: stop once the
+        epochs since the best validation loss hold at least this many steps. An epoch is one
+        minibatch while the buffer is small and many later, so a patience in epochs stops far too
+        early at first (one Adam step) and far too late at the end.
+    """
+
+    KEY = "loop.learning"
+    max_epochs: int = 100
+    batch_size: int = 8
+    patience: int = 5
+    learning_rate: float = 3e-3
+    beta: float = 1.0
+    max_steps: Optional[int] = 400
+    patience_steps: Optional[int] = 100
+
+    def check(self):
+        self._positive_ints("max_epochs", "batch_size", "patience", "max_steps", "patience_steps",
+                            optional=("max_steps", "patience_steps"))
+        self._positive_numbers("learning_rate", "beta", zero=True)
+
+
+@dataclass(frozen=True)
+class LoopConfig(_Checked):
+    """Algorithm 1's loop: K episodes of M iterations, the replay buffer, the ablation switches.
+
+    Attributes:
+      episodes: K, alternations of optimization and learning.
+      iterations: M, optimization iterations (simulations with backpropagation) per episode.
+      design_learning_rate: Adam step size of the design variables φ (Young's modulus per region).
+      gradient_clip: clip θ's and φ's gradients to this global norm before Adam (None: off).
+        Gradients through long closed-loop rollouts can spike by orders of magnitude; a spike
+        would otherwise swamp Adam's second-moment estimate for many steps.
+      snapshot_stride: record the grid velocity every this many steps.
+      replay_capacity: B, snapshots kept in the replay buffer (a ring buffer).
+      alpha: target step Θ ← α·Θ′ + (1 − α)·Θ after each learning phase (1: no smoothing).
+      replay: keep a replay buffer; False keeps only the latest rollout's snapshots.
+      schedule: how learning alternates with optimization (`Schedule`).
+      codesign: optimize the design φ with the controller; False: control only.
+      learning: the learning phase (`LearningConfig`).
+    """
+
+    KEY = "loop"
+    episodes: int = 10
+    iterations: int = 10
+    design_learning_rate: float = 0.5
+    gradient_clip: Optional[float] = 1.0
+    snapshot_stride: int = 20
+    replay_capacity: int = 500
+    alpha: float = 0.5
+    replay: bool = True
+    schedule: Schedule = Schedule.alternating
+    codesign: bool = True
+    learning: LearningConfig = field(default_factory=LearningConfig)
+
+    def check(self):
+        self._positive_ints("episodes", "iterations", "snapshot_stride", "replay_capacity")
+        self._positive_numbers("design_learning_rate")
+        self._positive_numbers("gradient_clip", optional=("gradient_clip",))
+        if not (_number(self.alpha) and 0 < self.alpha <= 1):
+            self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
+
+
+@dataclass(frozen=True)
+class ExperimentConfig(_Checked):
+    """A preset's name (it names the run directory), what it is, and what the paper ran."""
+
+    KEY = "experiment"
+    name: str = "demo"
+    description: str = ""
+    paper_scale: str = ""
+
+
+@dataclass(frozen=True)
+class OutputConfig(_Checked):
+    """Attributes: progress bar on stderr; GIF of the final robot (seed 0); the loss plot, robot
+    drawing and latent/cluster pictures; simulation steps per animation frame."""
+
+    KEY = "output"
+    progress: bool = True
+    animation: bool = True
+    pictures: bool = True
+    animation_stride: int = 10
+
+    def check(self):
+        self._positive_ints("animation_stride")
+
+
+@dataclass(frozen=True)
+class Config(_Checked):
+    """Everything one run needs. `litl.loop.run(robot, config, ...)` reads observer,
+    controller, sim, loop, seeds and seed; robot and task say which robot the CLI builds,
+    experiment and output what it records and draws.
+
+    Attributes:
+      seeds: S, independent runs batched with `jax.vmap` (the paper uses 10).
+      seed: base seed; the runs use seed, seed + 1, ..., seed + S - 1.
+    """
+
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    task: TaskConfig = field(default_factory=TaskConfig)
+    observer: ObserverConfig = field(default_factory=ObserverConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    sim: SimSettings = field(default_factory=SimSettings)
+    loop: LoopConfig = field(default_factory=LoopConfig)
+    experiment: ExperimentConfig = field(default_factory=ExperimentConfig)
+    output: OutputConfig = field(default_factory=OutputConfig)
+    seeds: int = 1
+    seed: int = 0
+
+    def check(self):
+        self._positive_ints("seeds")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            self._invalid("seed", "must be an integer >= 0")
+        if self.controller.kind == ControllerKind.sinusoid and self.observer.kind != "none":
+            raise SettingsError(
+                f"observer.kind={self.observer.kind!r}: the sinusoid controller is open loop and "
+                f"reads no observer; set observer none (controller=sinusoid on the command line "
+                f"does so)", "observer.kind")
+
+    def check_observer_kind(self) -> None:
+        """`observer.kind` names a registered observer (imports the registry, hence JAX)."""
+        from litl.loop import observers
+
+        if self.observer.kind not in observers.names():
+            hint = (f"; observer.module={self.observer.module!r} registered no observer of that "
+                    f"name" if self.observer.module else
+                    "; an observer of your own: observer.kind=<name> observer.module=<module "
+                    "that registers it>")
+            raise SettingsError(f"observer.kind={self.observer.kind!r}: unknown observer; choose "
+                                f"one of {list(observers.names())}{hint}", "observer.kind")
+
+    def run_settings(self) -> dict:
+        """The settings that shape a run's results (recorded in `run.json`; a resumed run must
+        match them): observer, controller, sim, loop, seeds, seed."""
+        tree = dataclasses.asdict(self)
+        return {name: tree[name] for name in ("observer", "controller", "sim", "loop", "seeds",
+                                              "seed")}
+
+
+def from_dict(kind, values: dict):
+    """Build the config dataclass `kind` from a nested dict (a composed Hydra config as plain
+    containers, or `run.json`); nested dicts become nested configs."""
+    fields = {f.name: f for f in dataclasses.fields(kind)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        prefix = f"{kind.KEY}." if kind.KEY else ""
+        raise SettingsError(f"unknown setting(s) {[prefix + u for u in unknown]}")
+    built = {}
+    for name, value in values.items():
+        nested = _dataclass_of(fields[name].type)
+        built[name] = from_dict(nested, value) if nested and isinstance(value, dict) else value
+    return kind(**built)
+
+
+def flatten(tree: dict, prefix: str = "") -> dict:
+    """A nested dict's leaves by dotted key: ``{"loop.episodes": 10, ...}``."""
+    flat = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{prefix}{key}."))
+        else:
+            flat[prefix + key] = value
+    return flat
+
+
+def _dataclass_of(annotation):
+    for kind in (RobotConfig, TaskConfig, ObserverConfig, ControllerConfig, SimSettings,
+                 LoopConfig, LearningConfig, ExperimentConfig, OutputConfig):
+        if str(annotation) == kind.__name__:
+            return kind
+    return None
+
+
+def register_with_hydra() -> None:
+    """Put `Config` in Hydra's ConfigStore as `litl_schema`, which `conf/config.yaml` extends.
+
+    The dataclasses are frozen for the Python API; Hydra merges YAML files and overrides into
+    the node, so its read-only flags are lifted (the result is frozen again by `from_dict`)."""
+    from hydra.core.config_store import ConfigStore
+    from omegaconf import DictConfig, OmegaConf
+
+    def writable(node):
+        node._set_flag("readonly", None)
+        if isinstance(node, DictConfig):
+            for key in node:
+                writable(node._get_node(key))
+
+    node = OmegaConf.structured(Config)
+    writable(node)
+    ConfigStore.instance().store(name="litl_schema", node=node)
+
+
+def from_hydra(cfg) -> Config:
+    """Convert a composed Hydra config (DictConfig) into `Config`, checking every value."""
+    from omegaconf import OmegaConf, SCMode
+
+    plain = OmegaConf.to_container(cfg, resolve=True, structured_config_mode=SCMode.DICT)
+    plain.pop("hydra", None)
+    return from_dict(Config, plain)
