@@ -96,7 +96,7 @@ def quadruped_scene(dtype=None):
     config = SimConfig(
         grid_shape=(64, 64, 64), dx=dx, dt=0.5 * dx / speed, gravity=(0.0, -9.8, 0.0),
         boundary=Boundary.box(3, floor=Wall("friction", 0.5), sides="sticky"),
-        material="neo_hookean",
+        constitutive_model="neo_hookean",
     )
     return config, body, design, SimState.at_rest(jnp.asarray(x, dtype))
 

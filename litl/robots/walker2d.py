@@ -47,7 +47,7 @@ def build(dtype=jnp.float32) -> Scene:
         dt=DT,
         gravity=(0.0, -GRAVITY),
         boundary=Boundary.box(2, floor="sticky", sides="sticky", thickness=3),
-        material="fixed_corotated",
+        constitutive_model="fixed_corotated",
     )
     body = Body(
         volume=jnp.ones((n,), dtype),

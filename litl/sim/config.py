@@ -1,4 +1,4 @@
-"""Static simulator configuration: grid, time step, gravity, material model, boundaries.
+"""Static simulator configuration: grid, time step, gravity, constitutive model, boundaries.
 
 Everything here is a frozen, hashable dataclass. It is closed over by the factories in
 `litl.sim.step` and `litl.sim.rollout`, so changing it recompiles; differentiable quantities live in
@@ -19,10 +19,10 @@ import math
 from typing import Literal
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
-Material = Literal["fixed_corotated", "neo_hookean"]
+ConstitutiveModel = Literal["fixed_corotated", "neo_hookean"]
 
 WALL_KINDS = ("sticky", "slip", "friction", "open")
-MATERIALS = ("fixed_corotated", "neo_hookean")
+CONSTITUTIVE_MODELS = ("fixed_corotated", "neo_hookean")
 
 
 class ConfigError(ValueError):
@@ -112,7 +112,8 @@ class SimConfig:
       dt: time step.
       gravity: acceleration vector, one entry per axis (zero allowed).
       boundary: walls and pinned regions; default: sticky box of thickness 3.
-      material: ``"fixed_corotated"`` or ``"neo_hookean"``.
+      constitutive_model: the stress function, ``"fixed_corotated"`` or ``"neo_hookean"``
+        (`litl.sim.constitutive`).
       mass_epsilon: added to the grid mass before dividing momentum by it, in units of the mean
         particle mass (1e-10 as in DiffTaichi, whose particles have unit mass).
     """
@@ -122,7 +123,7 @@ class SimConfig:
     dt: float
     gravity: tuple[float, ...]
     boundary: Boundary | None = None
-    material: Material = "fixed_corotated"
+    constitutive_model: ConstitutiveModel = "fixed_corotated"
     mass_epsilon: float = 1e-10
 
     def __post_init__(self):
@@ -147,8 +148,9 @@ class SimConfig:
                 f"gravity must be a finite vector with {dim} entries (one per axis), "
                 f"got {self.gravity!r}"
             )
-        if self.material not in MATERIALS:
-            raise ConfigError(f"unknown material {self.material!r}; choose one of {MATERIALS}")
+        if self.constitutive_model not in CONSTITUTIVE_MODELS:
+            raise ConfigError(f"unknown constitutive_model {self.constitutive_model!r}; choose one "
+                              f"of {CONSTITUTIVE_MODELS}")
         if self.boundary is None:
             object.__setattr__(self, "boundary", Boundary.box(dim))
         if len(self.boundary.walls) != 2 * dim:

@@ -115,7 +115,7 @@ def make_rollout(
       checkpoint_every: also checkpoint segments of this many steps (a multiple of
         `snapshot_stride` when both are given); None: no segments.
       stress: ``stress(F, mu, lam) -> tau``, the constitutive model (see `litl.sim.make_step`);
-        None: `config.material`'s.
+        None: `config.constitutive_model`'s.
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")

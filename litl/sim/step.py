@@ -10,12 +10,12 @@ from flax import struct
 from litl.sim import linalg, transfer
 from litl.sim.boundary import apply_boundary
 from litl.sim.config import SimConfig
-from litl.sim.materials import MODELS, actuation_stress
+from litl.sim.constitutive import CONSTITUTIVE_MODELS, actuation_stress
 from litl.sim.state import Body, Design, Grid, SimState
 
 StepFn = Callable[[SimState, jnp.ndarray, Design], tuple[SimState, Grid]]
 # tau = stress(F, mu, lam): Kirchhoff stress from per-component F (F[i][j] of shape (n,)) and (n,)
-# Lamé parameters, as the models in `litl.sim.materials`.
+# Lamé parameters, as the models in `litl.sim.constitutive`.
 StressFn = Callable[[list, jnp.ndarray, jnp.ndarray], list]
 
 
@@ -90,7 +90,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
     compute values read by many consumers into buffers (`linalg.materialize`): the walker's
     forward+backward pass takes 0.77 s with it and 1.1 s without.
     """
-    stress_model = stress or MODELS[config.material]
+    stress_model = stress or CONSTITUTIVE_MODELS[config.constitutive_model]
     dx, dt, dim = config.dx, config.dt, config.dim
     # Buffering the grid and the node weights (and, in reverse mode, their cotangents) pays off
     # in 3D (quadruped3d forward+backward 24 s -> 22.5 s for the weights, 41 s -> 30 s for the
@@ -143,8 +143,8 @@ def make_step(config: SimConfig, body: Body, stress: StressFn | None = None) -> 
     `actuation` is (m,), one value per actuator; `grid` holds the post-boundary grid velocity and
     mass used to move the particles, i.e. what an observer sees. `stress(F, mu, lam) -> tau` is
     the constitutive model, a Kirchhoff stress from per-component deformation gradients and Lamé
-    parameters (`litl.sim.materials`; None: `config.material`'s, fixed corotated or neo-Hookean);
-    pass your own to simulate another material.
+    parameters (`litl.sim.constitutive`; None: `config.constitutive_model`'s);
+    pass your own to simulate another constitutive model.
     """
     component_step = make_component_step(config, body, stress)
 

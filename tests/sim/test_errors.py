@@ -25,7 +25,7 @@ idle = lambda params, state, grid_velocity: jnp.zeros(2)
         (dict(dt=0.0), "dt must be a positive"),
         (dict(dt=float("nan")), "dt must be a positive"),
         (dict(gravity=(0.0, -9.8, 0.0)), "2 entries"),
-        (dict(material="rubber"), "unknown material"),
+        (dict(constitutive_model="rubber"), "unknown constitutive_model"),
         (dict(boundary=Boundary.box(3)), "needs 4 walls"),
         (dict(boundary=Boundary.box(2, thickness=40)), "leaves no room"),
         (dict(boundary=Boundary.box(2, pinned_boxes=[((0.5, 0.5), (0.1, 0.1))])), "lo <= hi"),

@@ -23,11 +23,11 @@ def _directional_check(f, grad_f, x, direction, eps=1e-6, rtol=1e-5):
 CASES = [(2, "fixed_corotated"), (2, "neo_hookean"), (3, "fixed_corotated"), (3, "neo_hookean")]
 
 
-@pytest.mark.parametrize("dim,material", CASES)
-def test_gradients_match_central_differences(dim, material, x64):
+@pytest.mark.parametrize("dim,model", CASES)
+def test_gradients_match_central_differences(dim, model, x64):
     """d loss / d (policy parameters, per-particle E, Poisson ratio, density, initial velocity)."""
     config, body, design, state = block(dim, n_grid=16, lower=0.3, size=0.25, youngs=300.0,
-                                        material=material, dtype=jnp.float64)
+                                        constitutive_model=model, dtype=jnp.float64)
     rollout = make_rollout(config, body, sine_policy, 40)
     n = body.n_particles
 

@@ -11,7 +11,7 @@ from litl.sim.boundary import apply_boundary
 
 from tests.sim.scenes import block
 
-MATERIALS = ["fixed_corotated", "neo_hookean"]
+MODELS = ["fixed_corotated", "neo_hookean"]
 idle = lambda params, state, grid_velocity: jnp.zeros(2, state.x.dtype)
 
 
@@ -51,11 +51,11 @@ def test_gravity_may_point_anywhere(x64):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("material", MATERIALS)
-def test_momentum_is_conserved_without_gravity(dim, material, x64):
+@pytest.mark.parametrize("model", MODELS)
+def test_momentum_is_conserved_without_gravity(dim, model, x64):
     rng = np.random.default_rng(0)
     config, body, design, state = block(dim, n_grid=32, lower=0.4, size=0.2, gravity=0.0,
-                                        material=material, dtype=jnp.float64)
+                                        constitutive_model=model, dtype=jnp.float64)
     state = state.replace(v=jnp.asarray(rng.normal(0, 0.3, state.x.shape)))
     mass = design.density * body.volume
     params = jnp.asarray([0.7, -0.9])  # constant actuation: internal forces only
@@ -177,7 +177,7 @@ def test_polar_rotation_3d_is_a_rotation_with_finite_gradient_at_identity(x64):
 def test_the_step_takes_its_stress_function():
     """`make_step(..., stress=...)`: the named model passed explicitly changes nothing; a material
     of one's own (here a stress-free one, which cannot hold the block up) changes the motion."""
-    from litl.sim.materials import fixed_corotated
+    from litl.sim.constitutive import fixed_corotated
 
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.2, gravity=-9.8,
                                         youngs=200.0)

@@ -1,5 +1,9 @@
 """Constitutive models as Kirchhoff stresses tau(F), plus the active actuation stress.
 
+`SimConfig.constitutive_model` names one of `CONSTITUTIVE_MODELS`; any other stress function of
+the same form can be passed to `make_step` / `make_rollout` (``stress=``). (A robot's `Material`
+is something else: the parameter values, E, nu, density, actuator strength.)
+
 Matrices are per-component lists (see `litl.sim.linalg`): F[i][j] is an (n,) array; mu, lam (n,).
 """
 
@@ -30,7 +34,7 @@ def neo_hookean(F, mu, lam):
     return _add_to_diagonal(shear, lam * jnp.log(J) - mu)
 
 
-MODELS = {"fixed_corotated": fixed_corotated, "neo_hookean": neo_hookean}
+CONSTITUTIVE_MODELS = {"fixed_corotated": fixed_corotated, "neo_hookean": neo_hookean}
 
 
 def actuation_stress(F, activation, fiber):
