@@ -51,7 +51,7 @@ def measure(robot, youngs: float, strength: float | None, dt_factor: float, para
 
     config = dataclasses.replace(robot.config, dt=robot.config.dt * dt_factor)
     steps = int(round(robot.steps / dt_factor))
-    design = robot.design(jnp.full((robot.n_regions,), youngs))
+    design = robot.design_space.to_design(robot.design_space.uniform(youngs))
     if strength is not None:
         design = design.replace(actuator_strength=jnp.full_like(design.actuator_strength, strength))
     scene = robot.scene()

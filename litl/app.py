@@ -16,8 +16,8 @@ import pathlib
 import sys
 
 import litl.robots
-from litl.config import RESOLUTIONS, Config, SettingsError, TaskKind, from_hydra, \
-    register_with_hydra
+from litl.config import RESOLUTIONS, Config, MaterialConfig, SettingsError, TaskKind, \
+    from_hydra, register_with_hydra
 from litl.loop import run
 from litl.loop.run import RunDirectoryLock
 from litl.robots.robot import Robot
@@ -48,11 +48,27 @@ def build_robot(config: Config) -> Robot:
     if dx is None:
         dx = RESOLUTIONS[config.robot.resolution][litl.robots.catalog.ROBOTS[name].dim]
     robot = litl.robots.get(name, dx=dx)
+    if config.robot.material.changes():
+        robot = _with_material(robot, config.robot.material)
     kind = config.task.kind
     if kind != TaskKind.default:
         measure = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
     return robot
+
+
+def _with_material(robot: Robot, material: MaterialConfig) -> Robot:
+    """The robot with the command line's material changes, its dt following the stiffest
+    allowed design (errors name the robot.material keys as typed)."""
+    from litl.sim import ConfigError
+
+    given = ", ".join(f"robot.material.{f.name}={getattr(material, f.name)}"
+                      for f in dataclasses.fields(material) if getattr(material, f.name) is not None)
+    try:
+        return robot.with_material(dataclasses.replace(robot.material, **material.changes()))
+    except ConfigError as error:
+        raise SettingsError(f"{given}: {error} ({robot.name}'s own material: "
+                            f"{robot.material})", "robot.material") from None
 
 
 def import_user_module(key: str, module: str | None, registers: str) -> None:

@@ -160,6 +160,43 @@ def _enum_of(annotation):
 
 
 @dataclass(frozen=True)
+class MaterialConfig(_Checked):
+    """The robot's material from the command line; each null keeps the robot's own value
+    (`litl.robots.Material`; the catalog's robots: E = 20 in [15, 30], ν = 0.25, density 1,
+    actuator strength 3). The time step follows the stiffest allowed design.
+
+    Attributes:
+      youngs_modulus: initial Young's modulus E of every design region.
+      bounds: [E_min, E_max], the range co-design keeps each region's E in.
+      poisson_ratio, density, actuator_strength: fixed material parameters.
+    """
+
+    KEY = "robot.material"
+    youngs_modulus: Optional[float] = None
+    bounds: Optional[Tuple[float, float]] = None
+    poisson_ratio: Optional[float] = None
+    density: Optional[float] = None
+    actuator_strength: Optional[float] = None
+
+    def check(self):
+        self._positive_numbers("youngs_modulus", "density", optional=("youngs_modulus", "density"))
+        if self.bounds is not None and not (len(self.bounds) == 2 and all(map(_number, self.bounds))
+                                            and 0 < self.bounds[0] <= self.bounds[1]):
+            self._invalid("bounds", "must be [E_min, E_max] with 0 < E_min <= E_max")
+        if self.poisson_ratio is not None and not (_number(self.poisson_ratio)
+                                                   and -1 < self.poisson_ratio < 0.5):
+            self._invalid("poisson_ratio", "must lie in (-1, 0.5)")
+        if self.actuator_strength is not None and not _number(self.actuator_strength):
+            self._invalid("actuator_strength", "must be a finite number")
+
+    def changes(self) -> dict:
+        """The `litl.robots.Material` fields this config sets."""
+        names = {"bounds": "youngs_modulus_bounds"}
+        return {names.get(f.name, f.name): getattr(self, f.name)
+                for f in dataclasses.fields(self) if getattr(self, f.name) is not None}
+
+
+@dataclass(frozen=True)
 class RobotConfig(_Checked):
     """Which robot the CLI builds (`litl.app.build_robot`); the Python API passes a `Robot`.
 
@@ -169,6 +206,7 @@ class RobotConfig(_Checked):
       resolution: grid spacing used when dx is None (`Resolution`).
       module: a module to import first, which registers robots of your own
         (`litl.robots.register`); then name=<its name>.
+      material: changes to the robot's material and design bounds (`MaterialConfig`).
     """
 
     KEY = "robot"
@@ -176,6 +214,7 @@ class RobotConfig(_Checked):
     dx: Optional[float] = None
     resolution: Resolution = Resolution.demo
     module: Optional[str] = None
+    material: MaterialConfig = field(default_factory=MaterialConfig)
 
 
 @dataclass(frozen=True)
@@ -441,7 +480,7 @@ def flatten(tree: dict, prefix: str = "") -> dict:
 
 
 def _dataclass_of(annotation):
-    for kind in (RobotConfig, TaskConfig, ObserverConfig, ControllerConfig, SimSettings,
+    for kind in (RobotConfig, MaterialConfig, TaskConfig, ObserverConfig, ControllerConfig, SimSettings,
                  LoopConfig, LearningConfig, ExperimentConfig, OutputConfig):
         if str(annotation) == kind.__name__:
             return kind

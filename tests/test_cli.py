@@ -72,6 +72,7 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
     ("robot.dx=0.03", "must divide the domain"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
+    ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
 def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, message):
@@ -98,6 +99,22 @@ def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
     with pytest.raises(ValueError, match=message):
         config = compose([override, "+scale=smoke"])
         make_algorithm(build_robot(config), config)
+
+
+def test_material_and_design_bounds_from_the_command_line(tmp_path):
+    """robot.material.* reach the design space; dt follows the stiffest allowed E; run.json
+    records the material (a resumed run must match it)."""
+    from litl.app import compose, run_experiment
+
+    config = compose(["+scale=smoke", "observer=kmeans", "robot.material.bounds=[15,60]",
+                      "robot.material.youngs_modulus=30", "loop.episodes=1", "loop.iterations=1",
+                      "output.pictures=false", "output.animation=false", "output.progress=false"])
+    result = run_experiment(config, tmp_path)
+    saved = json.loads((tmp_path / "run.json").read_text())
+    assert saved["material"]["youngs_modulus_bounds"] == [15.0, 60.0]
+    assert saved["dt"] == 0.072 / 32 < 0.1 / 32                      # E_max 60 instead of 30
+    # φ0 = 30 in each region (the metrics hold φ after one Adam step of at most 0.5)
+    assert result.metrics[0]["design"] == pytest.approx([30.0] * 4, abs=0.5)
 
 
 def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():

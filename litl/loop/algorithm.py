@@ -173,6 +173,7 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
     sim_config, initial_state = scene.config, scene.state
     grid_shape, dim = sim_config.grid_shape, sim_config.dim
     task_loss = robot.task_loss()
+    space = robot.design_space    # φ: one Young's modulus per design region
     observer = observers.make(config.observer.kind, robot, config, sim_config, dtype)
     learner = observer.learner
     schedule = "fixed" if learner is None else loop.schedule.value
@@ -212,7 +213,7 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
                            observe=centroid if learner is not None else lambda state: ())
 
     def simulate(controller_params, design, observer):
-        final, trajectory = rollout((controller_params, observer), robot.design(design),
+        final, trajectory = rollout((controller_params, observer), space.to_design(design),
                                     initial_state)
         total, components = task_loss(initial_state, final)
         if learner is not None and not window.whole_grid:
@@ -230,7 +231,7 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
         controller_params = controller.init(controller_key, features, time=jnp.zeros((), dtype))
         observer_params = observer.init(observer_key, seed)
         observer_optimizer = learner.optimizer_init(observer_params) if learner is not None else ()
-        design = robot.region_youngs_modulus(dtype)
+        design = space.initial(dtype)
         return LoopState(
             controller=controller_params,
             design=design,
@@ -286,7 +287,7 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
         if loop.codesign:
             updates, design_optimizer = design_adam.update(
                 design_grad, state.design_optimizer, state.design)
-            design = robot.project(optax.apply_updates(state.design, updates))
+            design = space.project(optax.apply_updates(state.design, updates))
             state = state.replace(design=design, design_optimizer=design_optimizer)
         snapshots = trajectory.snapshots
         keep = add if loop.replay else replace_with

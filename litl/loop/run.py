@@ -78,6 +78,7 @@ def settings(robot: Robot, config: Config, algorithm) -> dict:
         "grid_shape": list(robot.config.grid_shape),
         "dx": robot.config.dx,
         "dt": robot.config.dt,
+        "material": json.loads(json.dumps(dataclasses.asdict(robot.material))),
         "steps": algorithm.steps,
         "config": json.loads(json.dumps(config.run_settings())),
         "observer": {"learned": algorithm.observer.learned,

@@ -265,7 +265,8 @@ def _format(value, name: str = "") -> str:
 def _comparable(run: Run) -> dict:
     """A run's settings that may tell it apart from other runs of the same robot (the steps
     used, not `sim.steps`, which may be null: the robot's default)."""
-    return {**run.config, **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")}}
+    return {**run.config, **flatten({"material": run.settings.get("material", {})}),
+            **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")}}
 
 
 def labels(runs: list[Run]) -> list[str]:

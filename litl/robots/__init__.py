@@ -8,6 +8,7 @@
 """
 
 from litl.robots.catalog import get, names, register
+from litl.robots.design import DesignSpace
 from litl.robots.image import layout_from_png, layout_from_pixels
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.robot import Material, Robot, Scene, check_fits, place
@@ -15,7 +16,7 @@ from litl.robots.shapes import Box, Circle, Ellipse, Extrusion, Part, Polygon, V
 from litl.robots.tasks import Locomotion, Reach, Task, make_task_loss
 
 __all__ = [
-    "Box", "Circle", "Ellipse", "Extrusion", "Layout", "LayoutError", "Locomotion", "Material",
+    "Box", "Circle", "DesignSpace", "Ellipse", "Extrusion", "Layout", "LayoutError", "Locomotion", "Material",
     "Part", "Polygon", "Reach", "Robot", "Scene", "Task", "Voxels", "check_fits", "get",
     "layout_from_pixels", "layout_from_png", "make_task_loss", "names", "place", "register",
     "sample_parts",

@@ -1,9 +1,10 @@
 """The paper's robots (Figs. 4 and 6), built from shapes, a PNG image and 3D primitives.
 
 Every robot is defined in physical units (2D domain 1 x 1, 3D domain 2 x 1 x 1, axis 1 up) and
-sampled at a grid spacing `dx` (2 particles per cell per axis). The time step follows dx so that the
-stiffest allowed design keeps the same CFL number (about 0.8), and the episode lasts the same
-simulated time at any resolution: refine dx for paper-scale runs, coarsen it for quick ones.
+sampled at a grid spacing `dx` (2 particles per cell per axis). The time step follows dx and the
+material so that the stiffest allowed design keeps the same CFL number (`Material.time_step`), and
+the episode lasts the same simulated time at any resolution: refine dx for paper-scale runs,
+coarsen it for quick ones.
 """
 
 from __future__ import annotations
@@ -21,9 +22,6 @@ from litl.robots.tasks import Locomotion, Reach, Task
 from litl.sim import Boundary, ConfigError, SimConfig
 
 GRAVITY = 3.8
-# dt / dx; with E <= 30, nu = 0.25, density 1 and actuator strength 3 the CFL number is 0.62, a
-# margin below the accepted 0.75 (`litl.sim.safety.MAX_CFL`): at 0.81 trained gaits blew up.
-DT_PER_DX = 0.1
 UP = (0.0, 1.0)
 
 
@@ -50,8 +48,10 @@ MAX_DX = 1 / 16
 PAPER_DX = {2: 1 / 128, 3: 1 / 32}
 
 
-def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
-    """(SimConfig, steps) for the standard domain at spacing dx."""
+def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY,
+               material: Material = Material()):
+    """(SimConfig, steps) for the standard domain at spacing dx, with the time step of the
+    stiffest design `material` allows (`Material.time_step`)."""
     extent = (1.0, 1.0) if dim == 2 else (2.0, 1.0, 1.0)
     if isinstance(dx, bool) or not isinstance(dx, (int, float)) or not 0 < dx <= MAX_DX:
         raise ConfigError(
@@ -62,7 +62,7 @@ def simulation(dim: int, dx: float, duration: float, gravity: float = GRAVITY):
     if any(abs(c - round(c)) > 1e-6 for c in cells):
         raise ConfigError(
             f"dx={dx!r} must divide the domain {extent} into whole cells, e.g. 1/32, 1/64 or 1/128")
-    dt = DT_PER_DX * dx
+    dt = material.time_step(dx)
     up = np.zeros(dim)
     up[1] = -gravity
     config = SimConfig(grid_shape=tuple(int(round(c)) for c in cells), dx=dx, dt=dt,
@@ -109,7 +109,8 @@ ARM = dict(width=0.08, length=0.24, segments=3, strength=1.5, duration=1.0, targ
 
 def arm(dx: float) -> Robot:
     width, length, segments = ARM["width"], ARM["length"], ARM["segments"]
-    config, steps = simulation(2, dx, duration=ARM["duration"], gravity=0.0)
+    material = Material(actuator_strength=ARM["strength"])
+    config, steps = simulation(2, dx, duration=ARM["duration"], gravity=0.0, material=material)
     base_x = 0.5 - width / 2
     parts = [Part(Box((base_x - 0.03, 0.0), (width + 0.06, 0.04)), pinned=True, region=0)]
     segment = length / segments
@@ -122,7 +123,6 @@ def arm(dx: float) -> Robot:
     layout = place(sample_parts(parts, dx), config)
     tip = layout.positions[layout.groups["tip"]].mean(axis=0)
     target = tuple(tip + np.asarray(ARM["target"]))
-    material = Material(actuator_strength=ARM["strength"])
     return Robot(
         "arm", layout, config, material=material, task=Task(Reach("tip", target)), steps=steps,
         description=(

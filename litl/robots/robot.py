@@ -1,7 +1,8 @@
-"""`Robot`: a layout placed in a simulation domain, with its materials, design bounds and task.
+"""`Robot`: a layout placed in a simulation domain, with its material, design space and task.
 
-A robot is data. It yields the simulator's pytrees (`body`, `design`, `initial_state`, `scene`) and
-maps the co-design variables (one Young's modulus per design region) to a per-particle `Design`.
+A robot is data. It yields the simulator's pytrees (`body`, `initial_state`, `scene`) and its
+`design_space` (`litl.robots.design`): the co-design variables φ (one Young's modulus per design
+region), their bounds and their map to the simulator's per-particle `Design`.
 """
 
 from __future__ import annotations
@@ -11,10 +12,11 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from litl.robots.design import DesignSpace, Material
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.tasks import Task, make_task_loss
 from litl.sim import (
-    Body, ConfigError, Design, SimConfig, SimState, check_actuation, check_time_step,
+    Body, ConfigError, SimConfig, SimState, check_actuation, check_time_step,
 )
 
 
@@ -28,37 +30,6 @@ class Scene:
     state: SimState
 
 
-@dataclasses.dataclass(frozen=True)
-class Material:
-    """Material of a robot and the bounds of its design variables.
-
-    Attributes:
-      youngs_modulus: initial Young's modulus E of every region.
-      youngs_modulus_bounds: (E_min, E_max): co-design projects each region's E into this range.
-      poisson_ratio: Poisson ratio nu, in (-1, 0.5).
-      density: mass per unit volume.
-      actuator_strength: active stress per unit actuation, the same for every actuator.
-    """
-
-    youngs_modulus: float = 20.0
-    youngs_modulus_bounds: tuple[float, float] = (15.0, 30.0)
-    poisson_ratio: float = 0.25
-    density: float = 1.0
-    actuator_strength: float = 3.0
-
-    def __post_init__(self):
-        low, high = self.youngs_modulus_bounds
-        if not (0 < low <= self.youngs_modulus <= high < np.inf):
-            raise ConfigError(
-                f"need 0 < E_min <= youngs_modulus <= E_max, got E = {self.youngs_modulus}, "
-                f"bounds {self.youngs_modulus_bounds}")
-        if not -1 < self.poisson_ratio < 0.5:
-            raise ConfigError(f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio}")
-        if not (self.density > 0 and np.isfinite(self.actuator_strength)):
-            raise ConfigError(f"density must be > 0 and actuator_strength finite, got "
-                              f"{self.density}, {self.actuator_strength}")
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class Robot:
     """A robot ready to simulate.
@@ -67,7 +38,7 @@ class Robot:
       name: registry name or a user's label.
       layout: particles and labels, already placed in the domain (see `place`).
       config: simulator settings (grid, dx, dt, gravity, walls, material model).
-      material: materials and design bounds.
+      material: material values and the bounds of the design variables (`Material`).
       task: the default task.
       steps: default episode length in simulation steps.
       description: one paragraph for users: shape, size, actuators, task.
@@ -91,9 +62,10 @@ class Robot:
             make_task_loss(self.task, self.layout)  # validates groups and targets
         # The stiffest design allowed must still be stable at this dt, and the softest must hold
         # its actuators without being crushed (co-design drifts to either bound).
-        low, high = self.material.youngs_modulus_bounds
-        check_time_step(self.config, self.body(), self.design(jnp.full((self.n_regions,), high)))
-        check_actuation(self.body(), self.design(jnp.full((self.n_regions,), low)))
+        space = self.design_space
+        low, high = space.bounds
+        check_time_step(self.config, self.body(), space.to_design(space.uniform(high)))
+        check_actuation(self.body(), space.to_design(space.uniform(low)))
 
     # ---- sizes
     @property
@@ -118,35 +90,27 @@ class Robot:
             pinned=jnp.asarray(layout.pinned),
         )
 
-    def region_youngs_modulus(self, dtype=jnp.float32) -> jnp.ndarray:
-        """(R,) the initial design variables: Young's modulus of each region."""
-        return jnp.full((self.n_regions,), self.material.youngs_modulus, dtype)
+    @property
+    def design_space(self) -> DesignSpace:
+        """The co-design variables φ: bounds, initial value, projection, map to `Design`."""
+        return DesignSpace(region=self.layout.region, n_regions=self.n_regions,
+                           n_actuators=self.n_actuators, material=self.material)
 
-    def project(self, region_youngs_modulus):
-        """Clip design variables (R,) into the material's bounds (the paper's projection step)."""
-        low, high = self.material.youngs_modulus_bounds
-        return jnp.clip(region_youngs_modulus, low, high)
-
-    def design(self, region_youngs_modulus=None, dtype=None) -> Design:
-        """Per-particle `Design` from one Young's modulus per region (R,); jittable, differentiable."""
-        if region_youngs_modulus is None:
-            region_youngs_modulus = self.region_youngs_modulus(dtype or jnp.float32)
-        region_youngs_modulus = jnp.asarray(region_youngs_modulus, dtype)
-        dtype = region_youngs_modulus.dtype
-        n, m = self.layout.n_particles, self.n_actuators
-        material = self.material
-        return Design(
-            youngs_modulus=region_youngs_modulus[jnp.asarray(self.layout.region)],
-            poisson_ratio=jnp.full((n,), material.poisson_ratio, dtype),
-            density=jnp.full((n,), material.density, dtype),
-            actuator_strength=jnp.full((m,), material.actuator_strength, dtype),
-        )
+    def with_material(self, material: Material) -> Robot:
+        """This robot with another `Material`; dt follows the stiffest allowed design
+        (`Material.time_step`) and the episode keeps its duration in seconds."""
+        duration = self.steps * self.config.dt
+        dt = material.time_step(self.config.dx)
+        config = dataclasses.replace(self.config, dt=dt)
+        return dataclasses.replace(self, material=material, config=config,
+                                   steps=max(int(round(duration / dt)), 1))
 
     def initial_state(self, dtype=jnp.float32) -> SimState:
         return SimState.at_rest(jnp.asarray(self.layout.positions, dtype))
 
     def scene(self, dtype=jnp.float32) -> Scene:
-        return Scene(self.config, self.body(dtype), self.design(dtype=dtype), self.initial_state(dtype))
+        return Scene(self.config, self.body(dtype), self.design_space.to_design(dtype=dtype),
+                     self.initial_state(dtype))
 
     def task_loss(self, task: Task | None = None):
         """`loss(initial_state, final_state) -> (total, components)` for `task` (default: own)."""

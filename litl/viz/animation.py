@@ -150,7 +150,8 @@ def record_rollout(robot, policy, policy_params, steps: int, design=None, stride
       policy: ``policy(params, state, grid_velocity) -> (m,) actuation``.
       policy_params: the policy's parameters.
       steps: number of simulation steps.
-      design: a `litl.sim.Design`; None: the robot's initial design (`robot.design()`).
+      design: a `litl.sim.Design`; None: the robot's initial design
+        (`robot.design_space.to_design()`).
       stride: keep the state after steps stride, 2 stride, ... (every `stride`-th step).
       check: raise `litl.sim.SimulationError` if the rollout blew up or lost particles (set False
         to look at a failure).
@@ -165,7 +166,7 @@ def record_rollout(robot, policy, policy_params, steps: int, design=None, stride
         raise VizError(f"stride must be an integer in [1, steps={steps}], got {stride!r}")
     rollout = jax.jit(make_rollout(robot.config, robot.body(), policy, steps,
                                    observe=lambda state: state.x, remat=False))
-    design = robot.design() if design is None else design
+    design = robot.design_space.to_design() if design is None else design
     _, trajectory = rollout(policy_params, design, robot.initial_state())
     if check:
         raise_if_unhealthy(trajectory.health, steps)

@@ -74,9 +74,9 @@ def test_biped_has_four_design_regions_for_co_design():
     robot = litl.robots.get("biped", dx=1 / 64)
     assert robot.n_regions == 4
     values = jnp.asarray([5.0, 10.0, 20.0, 40.0])
-    projected = robot.project(values)
+    projected = robot.design_space.project(values)
     np.testing.assert_allclose(projected, [15.0, 15.0, 20.0, 30.0])
-    design = robot.design(projected)
+    design = robot.design_space.to_design(projected)
     np.testing.assert_allclose(design.youngs_modulus, np.asarray(projected)[robot.layout.region])
 
 

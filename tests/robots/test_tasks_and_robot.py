@@ -57,11 +57,11 @@ def test_task_loss_gradient_through_a_rollout_is_finite_and_nonzero(x64):
     loss = robot.task_loss()
 
     def objective(w, youngs):
-        final, _ = rollout(w, robot.design(youngs), scene.state)
+        final, _ = rollout(w, robot.design_space.to_design(youngs), scene.state)
         return loss(scene.state, final)[0]
 
     grads = jax.jit(jax.grad(objective, argnums=(0, 1)))(
-        jnp.asarray([0.5, -0.5]), robot.region_youngs_modulus(jnp.float64))
+        jnp.asarray([0.5, -0.5]), robot.design_space.initial(jnp.float64))
     for g in grads:
         assert np.all(np.isfinite(g)) and np.abs(g).sum() > 0
 
@@ -115,7 +115,7 @@ def test_bad_materials_and_dimension_mismatch_fail_clearly():
 def test_design_maps_regions_to_particles_and_scene_matches_layout():
     robot = small_robot()
     assert robot.n_regions == 2
-    design = robot.design(jnp.asarray([17.0, 21.0]))
+    design = robot.design_space.to_design(jnp.asarray([17.0, 21.0]))
     expected = np.where(robot.layout.region == 0, 17.0, 21.0)
     np.testing.assert_allclose(design.youngs_modulus, expected)
     assert design.actuator_strength.shape == (2,)

@@ -36,7 +36,8 @@ def test_trained_biped_gait_stays_finite_with_finite_gradient(youngs_modulus):
     robot = litl.robots.get("biped", dx=1 / 64)
     scene = robot.scene()
     if youngs_modulus == "softest":
-        design = robot.design(jnp.full((robot.n_regions,), robot.material.youngs_modulus_bounds[0]))
+        space = robot.design_space
+        design = space.to_design(space.uniform(space.bounds[0]))
     else:
         design = scene.design
     params = SinusoidParams(jnp.asarray(TRAINED_WEIGHTS, jnp.float32),
@@ -63,7 +64,8 @@ def test_trained_biped_gait_stays_finite_with_finite_gradient(youngs_modulus):
 def test_catalog_time_step_keeps_a_margin_below_the_accepted_cfl():
     for name in ("biped", "arm", "quadruped"):
         robot = litl.robots.get(name)
-        stiffest = robot.design(jnp.full((robot.n_regions,), robot.material.youngs_modulus_bounds[1]))
+        space = robot.design_space
+        stiffest = space.to_design(space.uniform(space.bounds[1]))
         assert check_time_step(robot.config, robot.body(), stiffest) <= 0.65 < MAX_CFL
 
 
@@ -77,7 +79,7 @@ def test_time_step_that_blew_up_the_biped_is_refused():
     robot = litl.robots.get("biped", dx=1 / 64)
     import dataclasses
     config = dataclasses.replace(robot.config, dt=0.128 * robot.config.dx)  # CFL 0.80
-    stiffest = robot.design(jnp.full((robot.n_regions,), 30.0))
+    stiffest = robot.design_space.to_design(robot.design_space.uniform(30.0))
     with pytest.raises(ConfigError, match="time step dt=.*too large"):
         check_time_step(config, robot.body(), stiffest)
 
@@ -88,4 +90,4 @@ def test_actuators_that_crush_the_softest_design_are_refused():
     with pytest.raises(ConfigError, match=r"actuators are too strong.*active strain of 0\.667.*"
                                           r"lambda \+ 2 mu >= 20"):
         Robot("biped", robot.layout, robot.config, material=crushing, task=robot.task)
-    assert check_actuation(robot.body(), robot.design()) <= MAX_ACTIVE_STRAIN
+    assert check_actuation(robot.body(), robot.design_space.to_design()) <= MAX_ACTIVE_STRAIN

@@ -1,0 +1,129 @@
+"""The design space: what co-design optimizes, its bounds, and how it reaches the simulator.
+
+Three things are called "design" in litl, each with one name:
+
+* φ, the *design variables*: a (R,) vector, one Young's modulus per design region of the robot
+  (`LoopState.design`, the ``design`` column of `metrics.jsonl`); Adam updates it.
+* `DesignSpace`: everything about φ (its regions, bounds, initial value, projection, and the map
+  to the simulator); `Robot.design_space` gives a robot's.
+* `litl.sim.Design`: the simulator's per-particle parameters (E, ν, density per particle,
+  strength per actuator) that `DesignSpace.to_design(φ)` produces, differentiably.
+
+A robot's `Material` holds the values: the initial Young's modulus and its bounds, and the fixed
+Poisson ratio, density and actuator strength.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax.numpy as jnp
+import numpy as np
+
+from litl.sim import ConfigError, Design
+
+# Target CFL number of the stiffest allowed material: below the accepted 0.75
+# (`litl.sim.safety.MAX_CFL`; at 0.81 trained gaits blew up). dt / dx is rounded down to two
+# significant digits, which gives the catalog's robots dt = dx / 10.
+TARGET_CFL = 0.63
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """Material of a robot and the bounds of its design variables.
+
+    Attributes:
+      youngs_modulus: initial Young's modulus E of every region.
+      youngs_modulus_bounds: (E_min, E_max): co-design projects each region's E into this range.
+      poisson_ratio: Poisson ratio nu, in (-1, 0.5).
+      density: mass per unit volume.
+      actuator_strength: active stress per unit actuation, the same for every actuator.
+    """
+
+    youngs_modulus: float = 20.0
+    youngs_modulus_bounds: tuple[float, float] = (15.0, 30.0)
+    poisson_ratio: float = 0.25
+    density: float = 1.0
+    actuator_strength: float = 3.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "youngs_modulus_bounds", tuple(self.youngs_modulus_bounds))
+        if len(self.youngs_modulus_bounds) != 2:
+            raise ConfigError(f"youngs_modulus_bounds must be (E_min, E_max), got "
+                              f"{self.youngs_modulus_bounds}")
+        low, high = self.youngs_modulus_bounds
+        if not (0 < low <= self.youngs_modulus <= high < np.inf):
+            raise ConfigError(
+                f"need 0 < E_min <= youngs_modulus <= E_max, got E = {self.youngs_modulus}, "
+                f"bounds {self.youngs_modulus_bounds}")
+        if not -1 < self.poisson_ratio < 0.5:
+            raise ConfigError(f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio}")
+        if not (self.density > 0 and np.isfinite(self.actuator_strength)):
+            raise ConfigError(f"density must be > 0 and actuator_strength finite, got "
+                              f"{self.density}, {self.actuator_strength}")
+
+    def max_wave_speed(self) -> float:
+        """The fastest elastic wave at E_max, actuators counted as extra stiffness (as
+        `litl.sim.safety.wave_speed`): sqrt((lambda + 2 mu + |strength|) / density)."""
+        youngs, nu = self.youngs_modulus_bounds[1], self.poisson_ratio
+        mu = youngs / (2 * (1 + nu))
+        lam = youngs * nu / ((1 + nu) * (1 - 2 * nu))
+        return math.sqrt((lam + 2 * mu + abs(self.actuator_strength)) / self.density)
+
+    def time_step(self, dx: float) -> float:
+        """The time step for grid spacing dx: `TARGET_CFL` for the stiffest allowed design, with
+        dt / dx rounded down to two significant digits."""
+        ratio = TARGET_CFL / self.max_wave_speed()
+        scale = 10 ** (1 - math.floor(math.log10(ratio)))
+        return math.floor(ratio * scale) / scale * dx
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class DesignSpace:
+    """The co-designed parameters φ of a robot: one Young's modulus per design region.
+
+    Attributes:
+      region: (n_particles,) int design region of each particle.
+      n_regions: R, the length of φ.
+      n_actuators: actuators of the robot (one strength each in the `Design`).
+      material: initial value and bounds of φ, and the fixed material parameters.
+    """
+
+    region: np.ndarray
+    n_regions: int
+    n_actuators: int
+    material: Material
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """(E_min, E_max) of every entry of φ."""
+        return self.material.youngs_modulus_bounds
+
+    def initial(self, dtype=jnp.float32) -> jnp.ndarray:
+        """(R,) φ0: the material's Young's modulus in every region."""
+        return self.uniform(self.material.youngs_modulus, dtype)
+
+    def uniform(self, youngs_modulus: float, dtype=jnp.float32) -> jnp.ndarray:
+        """(R,) the same Young's modulus in every region (e.g. a bound: the stiffest design)."""
+        return jnp.full((self.n_regions,), youngs_modulus, dtype)
+
+    def project(self, design_variables):
+        """Clip φ (R,) into the bounds (the paper's projection step)."""
+        low, high = self.bounds
+        return jnp.clip(design_variables, low, high)
+
+    def to_design(self, design_variables=None, dtype=None) -> Design:
+        """The simulator's per-particle `Design` for φ (R,) (None: φ0); jittable and
+        differentiable in φ."""
+        if design_variables is None:
+            design_variables = self.initial(dtype or jnp.float32)
+        design_variables = jnp.asarray(design_variables, dtype)
+        dtype = design_variables.dtype
+        n, material = len(self.region), self.material
+        return Design(
+            youngs_modulus=design_variables[jnp.asarray(self.region)],
+            poisson_ratio=jnp.full((n,), material.poisson_ratio, dtype),
+            density=jnp.full((n,), material.density, dtype),
+            actuator_strength=jnp.full((self.n_actuators,), material.actuator_strength, dtype),
+        )
