@@ -32,6 +32,7 @@ def run_dirs(root):
     return sorted(p.parent for p in pathlib.Path(root).rglob("metrics.jsonl"))
 
 
+@pytest.mark.slow
 def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoint(tmp_path):
     done = litl_command(["+scale=smoke", "seeds=2"], tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -177,6 +178,7 @@ def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
     assert compose(["controller=sinusoid"]).observer.kind == "none"
 
 
+@pytest.mark.slow
 def test_every_robot_runs_at_smoke_scale_in_one_sweep(tmp_path):
     """`+scale=smoke` runs every robot, 3D included, through the CLI: one sweep with the joblib
     launcher, two jobs at a time (k-means and one iteration keep it to ~10 s of compilation per 2D

@@ -22,6 +22,7 @@ why (`SKIP_REASONS`). Each seed also keeps the parameters of its best rollout so
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any, Callable
 
 import jax
@@ -163,112 +164,173 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
     """Build the pure functions of Algorithm 1 for `robot` under `config` (its observer,
     controller, sim and loop settings)."""
     config.check_observer_kind()
-    loop = config.loop
     dtype = jnp.dtype(config.sim.dtype)
     if dtype == jnp.float64 and not jax.config.jax_enable_x64:
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.sim.steps or robot.steps
-    stride = min(loop.snapshot_stride, steps)
     scene = robot.scene(dtype)
-    sim_config, initial_state = scene.config, scene.state
-    grid_shape, dim = sim_config.grid_shape, sim_config.dim
-    task_loss = robot.task_loss()
-    space = robot.design_space    # φ: one Young's modulus per design region
-    observer = observers.make(config.observer.kind, robot, config, sim_config, dtype)
-    learner = observer.learner
-    schedule = "fixed" if learner is None else loop.schedule.value
-    if learner is not None and schedule != Schedule.simultaneous:
-        # A learning phase splits the buffer into a training and a validation half: with fewer
-        # than two snapshots it can learn nothing, and would say so only as epochs_used 0.
-        held = loop.replay_capacity if loop.replay else min(loop.replay_capacity,
-                                                            steps // stride)
-        if held < 2:
-            raise SettingsError(
-                f"the learning phase needs at least 2 snapshots in the replay buffer, but it can "
-                f"hold {held} (loop.replay_capacity={loop.replay_capacity}, "
-                f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
-                f"loop.snapshot_stride={loop.snapshot_stride}, loop.replay={loop.replay}); "
-                f"raise loop.replay_capacity or lower loop.snapshot_stride")
-    # A learned observer's snapshots are windows that follow the robot (the whole grid otherwise).
-    window = learner.window if learner is not None else Window.around(grid_shape, sim_config.dx,
-                                                                        None)
-    settings = config.controller
+    observer = observers.make(config.observer.kind, robot, config, scene.config, dtype)
+    schedule = "fixed" if observer.learner is None else config.loop.schedule.value
+    stride = min(config.loop.snapshot_stride, steps)
+    _check_learning_data(config.loop, observer, schedule, steps, stride)
+    pieces = _Pieces(robot=robot, config=config, dtype=dtype, steps=steps, stride=stride,
+                     scene=scene, observer=observer, schedule=schedule,
+                     controller=_make_controller(robot, config.controller))
+    return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, optimize=pieces.optimize,
+                     learn=pieces.learn, evaluate=pieces.evaluate, steps=steps,
+                     observer=observer, schedule=schedule, policy=pieces.policy,
+                     controller=pieces.controller)
+
+
+def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
     if settings.kind == ControllerKind.sinusoid:
-        controller = SinusoidController(robot.n_actuators, omega=settings.omega)
-    else:
-        controller = MLPController(robot.n_actuators, settings.widths, period=settings.period)
-    clip = [optax.clip_by_global_norm(loop.gradient_clip)] if loop.gradient_clip else []
-    controller_adam = optax.chain(*clip, optax.adam(settings.learning_rate))
-    design_adam = optax.chain(*clip, optax.adam(loop.design_learning_rate))
+        return SinusoidController(robot.n_actuators, omega=settings.omega)
+    return MLPController(robot.n_actuators, settings.widths, period=settings.period)
 
-    def policy(params, state, grid_velocity):
+
+def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, stride: int):
+    """A learning phase splits the buffer into a training and a validation half: with fewer than
+    two snapshots it can learn nothing, and would say so only as epochs_used 0."""
+    if observer.learner is None or schedule == Schedule.simultaneous:
+        return
+    held = loop.replay_capacity if loop.replay else min(loop.replay_capacity, steps // stride)
+    if held < 2:
+        raise SettingsError(
+            f"the learning phase needs at least 2 snapshots in the replay buffer, but it can "
+            f"hold {held} (loop.replay_capacity={loop.replay_capacity}, "
+            f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
+            f"loop.snapshot_stride={loop.snapshot_stride}, loop.replay={loop.replay}); "
+            f"raise loop.replay_capacity or lower loop.snapshot_stride")
+
+
+def _optimizer(learning_rate: float, clip: float | None) -> optax.GradientTransformation:
+    """Adam, after clipping the gradient's global norm (None: no clipping)."""
+    return optax.chain(*([optax.clip_by_global_norm(clip)] if clip else []),
+                       optax.adam(learning_rate))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Pieces:
+    """The static parts of one run's Algorithm 1 and its pure per-seed functions (`Algorithm`'s
+    init, bootstrap, optimize, learn, evaluate and policy are these methods)."""
+
+    robot: Robot
+    config: Config
+    dtype: Any
+    steps: int
+    stride: int
+    scene: Any
+    observer: Observer
+    schedule: str
+    controller: MLPController | SinusoidController
+
+    @property
+    def learner(self):
+        return self.observer.learner
+
+    @property
+    def window(self) -> Window:
+        """The grid window a learned observer's snapshots are cropped to (else the whole grid)."""
+        if self.learner is not None:
+            return self.learner.window
+        return Window.around(self.scene.config.grid_shape, self.scene.config.dx, None)
+
+    @property
+    def controller_adam(self) -> optax.GradientTransformation:
+        return _optimizer(self.config.controller.learning_rate, self.config.loop.gradient_clip)
+
+    @property
+    def design_adam(self) -> optax.GradientTransformation:
+        return _optimizer(self.config.loop.design_learning_rate, self.config.loop.gradient_clip)
+
+    def policy(self, params, state, grid_velocity):
+        """Actuation from the observer's features of the grid (and the clock)."""
         controller_params, observer_params = params
-        features = observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
-        if settings.feature_gradient == FeatureGradient.stop:
+        features = self.observer.features(jax.lax.stop_gradient(observer_params), state,
+                                          grid_velocity)
+        if self.config.controller.feature_gradient == FeatureGradient.stop:
             features = jax.lax.stop_gradient(features)
-        time = state.step.astype(dtype) * sim_config.dt
-        return controller.apply(controller_params, features.astype(dtype), time=time)
+        time = state.step.astype(self.dtype) * self.scene.config.dt
+        return self.controller.apply(controller_params, features.astype(self.dtype), time=time)
 
-    rollout = make_rollout(sim_config, scene.body, policy, steps, snapshot_stride=stride,
-                           observe=centroid if learner is not None else lambda state: ())
+    @functools.cached_property
+    def rollout(self):
+        observe = centroid if self.learner is not None else lambda state: ()
+        return make_rollout(self.scene.config, self.scene.body, self.policy, self.steps,
+                            snapshot_stride=self.stride, observe=observe)
 
-    def simulate(controller_params, design, observer):
-        final, trajectory = rollout((controller_params, observer), space.to_design(design),
-                                    initial_state)
-        total, components = task_loss(initial_state, final)
-        if learner is not None and not window.whole_grid:
+    def simulate(self, controller_params, design, observer):
+        """(task loss, (its components, the trajectory)) of one rollout from the initial state."""
+        initial = self.scene.state
+        final, trajectory = self.rollout((controller_params, observer),
+                                         self.robot.design_space.to_design(design), initial)
+        total, components = self.robot.task_loss()(initial, final)
+        if self.learner is not None and not self.window.whole_grid:
             # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
             # with the state after that step: crop both around that state's centroid.
+            stride = self.stride
             centres = trajectory.observations[stride - 1::stride][:trajectory.snapshots.shape[0]]
             trajectory = trajectory.replace(
-                snapshots=jax.vmap(window.crop)(trajectory.snapshots, centres))
+                snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres))
         return total, (components, trajectory)
 
-    def init(seed: int) -> LoopState:
+    def init(self, seed: int) -> LoopState:
+        """Random θ and Θ for `seed`, φ0, optimizer states, an empty buffer."""
+        dtype, observer = self.dtype, self.observer
         key = jax.random.key(seed)
         key, controller_key, observer_key = jax.random.split(key, 3)
         features = jnp.zeros((observer.n_features,), dtype)
-        controller_params = controller.init(controller_key, features, time=jnp.zeros((), dtype))
+        controller_params = self.controller.init(controller_key, features,
+                                                 time=jnp.zeros((), dtype))
         observer_params = observer.init(observer_key, seed)
-        observer_optimizer = learner.optimizer_init(observer_params) if learner is not None else ()
-        design = space.initial(dtype)
+        observer_optimizer = (self.learner.optimizer_init(observer_params)
+                              if self.learner is not None else ())
+        design = self.robot.design_space.initial(dtype)
+        dim = self.scene.config.dim
         return LoopState(
             controller=controller_params,
             design=design,
-            controller_optimizer=controller_adam.init(controller_params),
-            design_optimizer=design_adam.init(design),
+            controller_optimizer=self.controller_adam.init(controller_params),
+            design_optimizer=self.design_adam.init(design),
             observer=observer_params,
             observer_optimizer=observer_optimizer,
-            buffer=ReplayBuffer.empty(loop.replay_capacity, window.shape, dim, dtype),
+            buffer=ReplayBuffer.empty(self.config.loop.replay_capacity, self.window.shape, dim,
+                                      dtype),
             key=jax.random.key_data(key),
-            stats=empty_stats(dtype, loop.learning.max_epochs, dim),
+            stats=empty_stats(dtype, self.config.loop.learning.max_epochs, dim),
             best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
                       controller=controller_params, design=design, observer=observer_params),
             iteration=jnp.zeros((), jnp.int32),
             consecutive_skips=jnp.zeros((), jnp.int32),
         )
 
+    @staticmethod
     def split_key(state: LoopState):
         key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
         return state.replace(key=jax.random.key_data(key)), sub
 
-    def learn(state: LoopState, alpha=loop.alpha):
-        if learner is None:
+    def learn(self, state: LoopState, alpha=None):
+        """A learning phase on a copy Θ′, then Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`)."""
+        if self.learner is None:
             return state, state.stats
-        state, key = split_key(state)
-        trained, stats = learner.phase(state.observer, state.buffer, key)
-        return state.replace(observer=soft_update(state.observer, trained, alpha), stats=stats), stats
+        alpha = self.config.loop.alpha if alpha is None else alpha
+        state, key = self.split_key(state)
+        trained, stats = self.learner.phase(state.observer, state.buffer, key)
+        return state.replace(observer=soft_update(state.observer, trained, alpha),
+                             stats=stats), stats
 
-    def bootstrap(state: LoopState):
-        total, (_, trajectory) = simulate(state.controller, state.design, state.observer)
+    def bootstrap(self, state: LoopState):
+        """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
+        total, (_, trajectory) = self.simulate(state.controller, state.design, state.observer)
         # A failed rollout's snapshots never enter the buffer.
-        healthy = skip_reason(trajectory.health, total, jnp.zeros((), dtype)) == 0
+        healthy = skip_reason(trajectory.health, total, jnp.zeros((), self.dtype)) == 0
         buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots), state.buffer)
         # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
-        return learn(state.replace(buffer=buffer), alpha=1.0)
+        return self.learn(state.replace(buffer=buffer), alpha=1.0)
 
-    def optimize(state: LoopState):
-        value_and_grad = jax.value_and_grad(simulate, argnums=(0, 1), has_aux=True)
+    def optimize(self, state: LoopState):
+        """One optimization iteration (see the module docstring); returns (state, metrics)."""
+        value_and_grad = jax.value_and_grad(self.simulate, argnums=(0, 1), has_aux=True)
         (total, (components, trajectory)), (controller_grad, design_grad) = value_and_grad(
             state.controller, state.design, state.observer)
         controller_grad_norm = optax.tree.norm(controller_grad)
@@ -280,22 +342,14 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
         best = keep_if(improved, Best(task_loss=total, step=state.iteration,
                                       controller=state.controller, design=state.design,
                                       observer=state.observer), state.best)
-        updates, controller_optimizer = controller_adam.update(
-            controller_grad, state.controller_optimizer, state.controller)
-        state = state.replace(controller=optax.apply_updates(state.controller, updates),
-                              controller_optimizer=controller_optimizer)
-        if loop.codesign:
-            updates, design_optimizer = design_adam.update(
-                design_grad, state.design_optimizer, state.design)
-            design = space.project(optax.apply_updates(state.design, updates))
-            state = state.replace(design=design, design_optimizer=design_optimizer)
+        state = self.step_parameters(state, controller_grad, design_grad)
         snapshots = trajectory.snapshots
-        keep = add if loop.replay else replace_with
+        keep = add if self.config.loop.replay else replace_with
         state = state.replace(buffer=keep(state.buffer, snapshots))
-        recon = jnp.full((), jnp.nan, dtype)
-        if schedule == Schedule.simultaneous:
-            state, key = split_key(state)
-            observer_params, observer_optimizer, losses = learner.step(
+        recon = jnp.full((), jnp.nan, self.dtype)
+        if self.schedule == Schedule.simultaneous:
+            state, key = self.split_key(state)
+            observer_params, observer_optimizer, losses = self.learner.step(
                 state.observer, state.observer_optimizer, snapshots, key)
             state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
             recon = losses["recon"]
@@ -319,13 +373,23 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
         }
         return state, metrics
 
-    def evaluate(state: LoopState):
-        total, _ = simulate(state.controller, state.design, state.observer)
-        return total
+    def step_parameters(self, state: LoopState, controller_grad, design_grad) -> LoopState:
+        """Adam on θ, and on φ then its projection into the bounds (unless control only)."""
+        updates, controller_optimizer = self.controller_adam.update(
+            controller_grad, state.controller_optimizer, state.controller)
+        state = state.replace(controller=optax.apply_updates(state.controller, updates),
+                              controller_optimizer=controller_optimizer)
+        if self.config.loop.codesign:
+            updates, design_optimizer = self.design_adam.update(
+                design_grad, state.design_optimizer, state.design)
+            design = self.robot.design_space.project(optax.apply_updates(state.design, updates))
+            state = state.replace(design=design, design_optimizer=design_optimizer)
+        return state
 
-    return Algorithm(init=init, bootstrap=bootstrap, optimize=optimize, learn=learn,
-                     evaluate=evaluate, steps=steps, observer=observer, schedule=schedule,
-                     policy=policy, controller=controller)
+    def evaluate(self, state: LoopState):
+        """The task loss of the current θ, φ, Θ (no gradient)."""
+        total, _ = self.simulate(state.controller, state.design, state.observer)
+        return total
 
 
 def stack_seeds(states: list[LoopState]) -> LoopState:

@@ -210,8 +210,8 @@ def _chunks(slots, mask, size):
     return slots, mask
 
 
-def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
-    """Build `learn(params, buffer, key) -> (best_params, LearningStats)`.
+def make_learning_phase(model: ConvAutoencoder, config: LearningConfig) -> LearningPhase:
+    """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
     `learn` refits the input scale on the valid buffer entries, trains the network of `params` (Θ′)
     with a fresh Adam state on a random training half, and returns the parameters of the epoch with
@@ -224,22 +224,43 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
     """
     if not isinstance(config, LearningConfig):
         raise ValueError(f"config must be a LearningConfig, got {type(config).__name__}")
-    optimizer = optax.adam(config.learning_rate)
-    batch_size, beta = config.batch_size, config.beta
+    return LearningPhase(model, config)
 
-    def per_snapshot_losses(params, fields, key):
-        """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.losses` each)."""
+
+def _gather(buffer: ReplayBuffer, slots, mask, dtype):
+    """(b, *grid, d) the buffer's fields at `slots`; padding slots (mask False) point at arbitrary
+    data and are zeroed, so nothing non-finite enters the network."""
+    fields = buffer.fields[slots].astype(dtype)
+    return jnp.where(_broadcast_mask(mask, fields), fields, 0)
+
+
+@dataclasses.dataclass(frozen=True)
+class LearningPhase:
+    """One learning phase of one seed, in named pieces; call it as
+    ``phase(params, buffer, key) -> (best_params, LearningStats)`` (see `make_learning_phase`).
+
+    Attributes:
+      model: the observer architecture.
+      config: the phase's hyperparameters.
+    """
+
+    model: ConvAutoencoder
+    config: LearningConfig
+
+    @property
+    def optimizer(self) -> optax.GradientTransformation:
+        return optax.adam(self.config.learning_rate)
+
+    def losses(self, params, fields, key) -> dict:
+        """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.loss_terms` each);
+        key None: the encoder means, no sampling noise."""
+        model, beta = self.model, self.config.beta
         if key is None:
             return jax.vmap(lambda f: loss_terms(model, params, f[None], None, beta))(fields)
         keys = jax.random.split(key, fields.shape[0])
         return jax.vmap(lambda f, k: loss_terms(model, params, f[None], k, beta))(fields, keys)
 
-    def gather(params, buffer, slots, mask):
-        # Padding slots point at arbitrary data; zero them so nothing non-finite enters the net.
-        fields = buffer.fields[slots].astype(params.scale.dtype)
-        return jnp.where(_broadcast_mask(mask, fields), fields, 0)
-
-    def masked_means(params, buffer, slots, mask, readout=None):
+    def masked_means(self, params, buffer, slots, mask, readout=None) -> dict:
         """Means over the masked slots (NaN if none), with the encoder means (no sampling noise).
 
         recon, kl, total and signal (mean squared input) per snapshot; code and code_square, the
@@ -249,12 +270,12 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         mean squared error of A b per velocity component, and target, target_square, the mean and
         mean square of y.
         """
-        dim = model.dim
+        dim, latent_dim, batch_size = self.model.dim, self.model.latent_dim, self.config.batch_size
+        dtype = params.scale.dtype
 
-        def body(sums, chunk):
-            chunk_slots, chunk_mask = chunk
-            fields = gather(params, buffer, chunk_slots, chunk_mask)
-            out = per_snapshot_losses(params, fields, None)
+        def add_chunk(sums, chunk_slots, chunk_mask):
+            fields = _gather(buffer, chunk_slots, chunk_mask, dtype)
+            out = self.losses(params, fields, None)
             code = out["code"][:, 0]
             features = jnp.concatenate([code, jnp.ones_like(code[:, :1])], axis=1)
             target = _occupied_mean_velocity(fields / params.scale)
@@ -268,12 +289,11 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
                 k: sums[k] + jnp.sum(jnp.where(_broadcast_mask(chunk_mask, out[k]), out[k], 0),
                                      axis=0).astype(sums[k].dtype)
                 for k in sums
-            }, None
+            }
 
-        dtype = params.scale.dtype
         zero = jnp.zeros((), dtype)
-        codes = jnp.zeros((model.latent_dim,), dtype)
-        width = model.latent_dim + 1
+        codes = jnp.zeros((latent_dim,), dtype)
+        width = latent_dim + 1
         sums = {"recon": zero, "kl": zero, "total": zero, "signal": zero, "code": codes,
                 "code_square": codes, "gram": jnp.zeros((width, width), dtype),
                 "cross": jnp.zeros((width, dim), dtype)}
@@ -286,117 +306,86 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
         # the buffer's content, not its capacity.
         sums = jax.lax.fori_loop(
             0, (n + batch_size - 1) // batch_size,
-            lambda i, sums: body(sums, (chunk_slots[i], chunk_mask[i]))[0], sums)
+            lambda i, sums: add_chunk(sums, chunk_slots[i], chunk_mask[i]), sums)
         return {k: jnp.where(n > 0, v / jnp.maximum(n, 1), jnp.nan) for k, v in sums.items()}
 
-    def learn(params: AutoencoderParams, buffer: ReplayBuffer, key):
-        """One learning phase for one seed.
+    def train_minibatch(self, params, buffer, carry, slots, mask, index):
+        """One Adam step on the minibatch at `slots` (carry: network, opt_state, batch_key)."""
+        network, opt_state, batch_key = carry
+        fields = _gather(buffer, slots, mask, params.scale.dtype)
 
-        Args:
-          params: Θ′, the observer copy to train (its scale is refitted).
-          buffer: replay buffer of (capacity, *model.grid_shape, d) snapshots.
-          key: PRNG key for the split, shuffling and VAE sampling noise.
+        def objective(network):
+            out = self.losses(params.replace(network=network), fields,
+                              jax.random.fold_in(batch_key, index))
+            return jnp.sum(jnp.where(mask, out["total"], 0)) / jnp.maximum(jnp.sum(mask), 1)
 
-        Returns:
-          The best parameters and `LearningStats` computed at them.
-        """
-        expected = tuple(model.grid_shape) + (model.dim,)
-        if tuple(buffer.fields.shape[1:]) != expected:
-            raise ValueError(
-                f"buffer snapshots have shape {tuple(buffer.fields.shape[1:])}, but the model "
-                f"expects {expected}"
-            )
-        capacity = buffer.capacity
-        split_key, epochs_key = jax.random.split(key)
-        split = random_split(buffer.count, capacity, split_key)
-        # Nothing to validate on with fewer than two entries: keep Θ′ as it is.
-        enough = buffer.count >= 2
-        steps_per_epoch = (jnp.sum(split.train_mask) + batch_size - 1) // batch_size
-        fitted = fit_scale_masked(params, buffer.fields, jnp.arange(capacity) < buffer.count)
-        params = params.replace(scale=jnp.where(enough, fitted.scale, params.scale))
-
-        def train_minibatch(carry, batch):
-            network, opt_state, batch_key = carry
-            slots, mask, index = batch
-            fields = gather(params, buffer, slots, mask)
-
-            def objective(network):
-                out = per_snapshot_losses(
-                    params.replace(network=network), fields, jax.random.fold_in(batch_key, index)
-                )
-                return jnp.sum(jnp.where(mask, out["total"], 0)) / jnp.maximum(jnp.sum(mask), 1)
-
-            grads = jax.grad(objective)(network)
-            updates, new_opt_state = optimizer.update(grads, opt_state, network)
-            new_network = optax.apply_updates(network, updates)
-            # An all-padding minibatch must not step Adam: its moments and step count would move.
-            real = jnp.any(mask)
-            network, opt_state = jax.tree.map(
-                lambda new, old: jnp.where(real, new, old),
-                (new_network, new_opt_state),
-                (network, opt_state),
-            )
-            return (network, opt_state, batch_key), None
-
-        def run_epoch(state: _LearningState) -> _LearningState:
-            shuffle_key, batch_key = jax.random.split(jax.random.fold_in(epochs_key, state.epoch))
-            noise = _slot_uniform(shuffle_key, split.train)
-            order = jnp.argsort(jnp.where(split.train_mask, noise, 2.0))
-            slots, mask = _chunks(split.train[order], split.train_mask, batch_size)
-            # The real training slots come first: only their minibatches run (a dynamic count, so
-            # an epoch costs what the buffer holds, not its capacity).
-            (network, opt_state, _) = jax.lax.fori_loop(
-                0, steps_per_epoch,
-                lambda i, carry: train_minibatch(carry, (slots[i], mask[i], i))[0],
-                (state.network, state.opt_state, batch_key))
-            means = masked_means(
-                params.replace(network=network), buffer, split.validation, split.validation_mask
-            )
-            validation = means["total"].astype(state.best_loss.dtype)
-            epoch = state.epoch + 1
-            improved = validation < state.best_loss
-            return _LearningState(
-                epoch=epoch,
-                network=network,
-                opt_state=opt_state,
-                best_network=jax.tree.map(
-                    lambda new, old: jnp.where(improved, new, old), network, state.best_network
-                ),
-                best_loss=jnp.where(improved, validation, state.best_loss),
-                best_epoch=jnp.where(improved, epoch, state.best_epoch),
-                stale_epochs=jnp.where(improved, 0, state.stale_epochs + 1),
-                val_recon_history=state.val_recon_history.at[state.epoch].set(
-                    means["recon"].astype(state.val_recon_history.dtype)),
-            )
-
-        def keep_going(state: _LearningState):
-            going = enough & (state.epoch < config.max_epochs)
-            if config.patience_steps is None:
-                going &= state.stale_epochs < config.patience
-            else:
-                going &= state.stale_epochs * steps_per_epoch < config.patience_steps
-            if config.max_steps is not None:
-                going &= state.epoch * steps_per_epoch < config.max_steps
-            return going
-
-        zero = jnp.zeros((), jnp.int32)
-        initial = _LearningState(
-            epoch=zero,
-            network=params.network,
-            opt_state=optimizer.init(params.network),
-            best_network=params.network,
-            best_loss=jnp.asarray(jnp.inf, params.scale.dtype),
-            best_epoch=zero,
-            stale_epochs=zero,
-            val_recon_history=jnp.full((config.max_epochs,), jnp.nan, params.scale.dtype),
+        grads = jax.grad(objective)(network)
+        updates, new_opt_state = self.optimizer.update(grads, opt_state, network)
+        new_network = optax.apply_updates(network, updates)
+        # An all-padding minibatch must not step Adam: its moments and step count would move.
+        real = jnp.any(mask)
+        network, opt_state = jax.tree.map(
+            lambda new, old: jnp.where(real, new, old),
+            (new_network, new_opt_state),
+            (network, opt_state),
         )
-        final = jax.lax.while_loop(keep_going, run_epoch, initial)
+        return network, opt_state, batch_key
 
-        best = params.replace(network=final.best_network)
-        train = masked_means(best, buffer, split.train, split.train_mask)
+    def run_epoch(self, params, buffer, split: Split, steps_per_epoch, epochs_key,
+                  state: _LearningState) -> _LearningState:
+        """One epoch: reshuffle the training half, its minibatches, then the validation loss."""
+        shuffle_key, batch_key = jax.random.split(jax.random.fold_in(epochs_key, state.epoch))
+        noise = _slot_uniform(shuffle_key, split.train)
+        order = jnp.argsort(jnp.where(split.train_mask, noise, 2.0))
+        slots, mask = _chunks(split.train[order], split.train_mask, self.config.batch_size)
+        # The real training slots come first: only their minibatches run (a dynamic count, so
+        # an epoch costs what the buffer holds, not its capacity).
+        network, opt_state, _ = jax.lax.fori_loop(
+            0, steps_per_epoch,
+            lambda i, carry: self.train_minibatch(params, buffer, carry, slots[i], mask[i], i),
+            (state.network, state.opt_state, batch_key))
+        means = self.masked_means(params.replace(network=network), buffer, split.validation,
+                                  split.validation_mask)
+        validation = means["total"].astype(state.best_loss.dtype)
+        epoch = state.epoch + 1
+        improved = validation < state.best_loss
+        return _LearningState(
+            epoch=epoch,
+            network=network,
+            opt_state=opt_state,
+            best_network=jax.tree.map(
+                lambda new, old: jnp.where(improved, new, old), network, state.best_network
+            ),
+            best_loss=jnp.where(improved, validation, state.best_loss),
+            best_epoch=jnp.where(improved, epoch, state.best_epoch),
+            stale_epochs=jnp.where(improved, 0, state.stale_epochs + 1),
+            val_recon_history=state.val_recon_history.at[state.epoch].set(
+                means["recon"].astype(state.val_recon_history.dtype)),
+        )
+
+    def keep_going(self, enough, steps_per_epoch, state: _LearningState):
+        """Whether another epoch runs: the epoch cap, the patience (in epochs or SGD steps) and
+        the SGD-step budget."""
+        config = self.config
+        going = enough & (state.epoch < config.max_epochs)
+        if config.patience_steps is None:
+            going &= state.stale_epochs < config.patience
+        else:
+            going &= state.stale_epochs * steps_per_epoch < config.patience_steps
+        if config.max_steps is not None:
+            going &= state.epoch * steps_per_epoch < config.max_steps
+        return going
+
+    def statistics(self, best, buffer, split: Split, final: _LearningState,
+                   steps_per_epoch) -> LearningStats:
+        """`LearningStats` of the best parameters: losses on both halves, recon_explained and
+        active units on the held-out half, and the R² of a linear readout fitted on the
+        training half."""
+        train = self.masked_means(best, buffer, split.train, split.train_mask)
         readout = fit_readout(train["gram"], train["cross"])
-        validation = masked_means(best, buffer, split.validation, split.validation_mask, readout)
-        stats = LearningStats(
+        validation = self.masked_means(best, buffer, split.validation, split.validation_mask,
+                                       readout)
+        return LearningStats(
             recon_loss_train=train["recon"],
             recon_loss_val=validation["recon"],
             recon_explained=explained_variance(validation["recon"], validation["signal"]),
@@ -409,9 +398,50 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig):
             val_recon_history=final.val_recon_history,
             steps_per_epoch=steps_per_epoch,
         )
-        return best, stats
 
-    return learn
+    def __call__(self, params: AutoencoderParams, buffer: ReplayBuffer, key):
+        """One learning phase for one seed.
+
+        Args:
+          params: Θ′, the observer copy to train (its scale is refitted).
+          buffer: replay buffer of (capacity, *model.grid_shape, d) snapshots.
+          key: PRNG key for the split, shuffling and VAE sampling noise.
+
+        Returns:
+          The best parameters and `LearningStats` computed at them.
+        """
+        expected = tuple(self.model.grid_shape) + (self.model.dim,)
+        if tuple(buffer.fields.shape[1:]) != expected:
+            raise ValueError(
+                f"buffer snapshots have shape {tuple(buffer.fields.shape[1:])}, but the model "
+                f"expects {expected}"
+            )
+        capacity, batch_size = buffer.capacity, self.config.batch_size
+        split_key, epochs_key = jax.random.split(key)
+        split = random_split(buffer.count, capacity, split_key)
+        # Nothing to validate on with fewer than two entries: keep Θ′ as it is.
+        enough = buffer.count >= 2
+        steps_per_epoch = (jnp.sum(split.train_mask) + batch_size - 1) // batch_size
+        fitted = fit_scale_masked(params, buffer.fields, jnp.arange(capacity) < buffer.count)
+        params = params.replace(scale=jnp.where(enough, fitted.scale, params.scale))
+        zero = jnp.zeros((), jnp.int32)
+        initial = _LearningState(
+            epoch=zero,
+            network=params.network,
+            opt_state=self.optimizer.init(params.network),
+            best_network=params.network,
+            best_loss=jnp.asarray(jnp.inf, params.scale.dtype),
+            best_epoch=zero,
+            stale_epochs=zero,
+            val_recon_history=jnp.full((self.config.max_epochs,), jnp.nan, params.scale.dtype),
+        )
+        final = jax.lax.while_loop(
+            lambda state: self.keep_going(enough, steps_per_epoch, state),
+            lambda state: self.run_epoch(params, buffer, split, steps_per_epoch, epochs_key,
+                                         state),
+            initial)
+        best = params.replace(network=final.best_network)
+        return best, self.statistics(best, buffer, split, final, steps_per_epoch)
 
 
 def soft_update(target: AutoencoderParams, online: AutoencoderParams, alpha) -> AutoencoderParams:

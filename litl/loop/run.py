@@ -194,6 +194,37 @@ class RunDirectoryLock:
 
 def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes,
                 config_files):
+    _claim(run_dir, wanted, config_files)
+    shell = _Shell(run_dir, algorithm, [config.seed + s for s in range(config.seeds)])
+    state, counters = shell.start()
+    loop = config.loop
+    episodes = loop.episodes if stop_after_episodes is None else min(
+        stop_after_episodes, loop.episodes)
+    bar = Progress(loop.episodes, loop.iterations, enabled=progress)
+    before = np.asarray(counters["loss_before_retrain"], np.float64)
+    for episode in range(int(counters["episodes_done"]), episodes):
+        state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
+        if algorithm.retrains:
+            before = np.asarray(shell.evaluate(state), np.float64)
+            with bar.learning(episode):
+                state = shell.learning_phase(state, episode)
+        else:
+            before = np.full(config.seeds, np.nan)
+        shell.checkpoints.save(episode + 1, state, {
+            "episodes_done": episode + 1, "metrics_lines": len(shell.records),
+            "learning_lines": len(shell.learning), "loss_before_retrain": before})
+    bar.close()
+    shell.checkpoints.close()
+    if episodes == loop.episodes:
+        _save_final(run_dir / "final", state)
+        _save_best(run_dir, state, shell.seeds)
+    return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state),
+                     metrics=shell.records)
+
+
+def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) -> None:
+    """Record the run's settings in `run.json`, or check that they equal those recorded (a
+    resumed run); then write the caller's config files."""
     settings_file = run_dir / "run.json"
     if settings_file.exists():
         found = json.loads(settings_file.read_text())
@@ -215,78 +246,78 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
         (run_dir / name).parent.mkdir(parents=True, exist_ok=True)
         (run_dir / name).write_text(text)
 
-    seeds = [config.seed + s for s in range(config.seeds)]
-    batched = lambda f: jax.jit(jax.vmap(f))
-    bootstrap, optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
-    learn, evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
-    retrains = algorithm.retrains
 
-    checkpoints = Checkpoints(run_dir / "checkpoints")
-    metrics_file, learning_file = run_dir / "metrics.jsonl", run_dir / "learning.jsonl"
-    template = stack_seeds([algorithm.init(seed) for seed in seeds])
-    counters = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0,
-                "loss_before_retrain": np.full(config.seeds, np.nan)}
-    if checkpoints.latest() is not None:
-        state, counters = checkpoints.restore(template, counters)
-        records = _read_metrics(metrics_file, int(counters["metrics_lines"]))
-        learning = _read_metrics(learning_file, int(counters["learning_lines"]))
-    else:
-        phase_start = time.perf_counter()
-        state, stats = jax.block_until_ready(bootstrap(shard_seeds(template)))
-        records = []
-        learning = (_learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
-                    if algorithm.observer.learned else [])
-        counters["learning_lines"] = len(learning)
-        checkpoints.save(0, state, counters)
-    state = shard_seeds(state)
-    for path, lines in ((metrics_file, records), (learning_file, learning)):
-        with open(path, "w") as out:
-            out.writelines(json.dumps(r) + "\n" for r in lines)
+class _Shell:
+    """The impure side of one run: the seeds' batched (jit of vmap) functions, the metrics and
+    learning files, the checkpoints."""
 
-    loop = config.loop
-    episodes = loop.episodes if stop_after_episodes is None else min(
-        stop_after_episodes, loop.episodes)
-    bar = Progress(loop.episodes, loop.iterations, enabled=progress)
-    start = time.perf_counter()
-    before = np.asarray(counters["loss_before_retrain"], np.float64)
-    with open(metrics_file, "a") as out:
-        for episode in range(int(counters["episodes_done"]), episodes):
-            stats = jax.tree.map(np.asarray, state.stats)
-            for iteration in range(loop.iterations):
-                state, metrics = optimize(state)
+    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int]):
+        self.algorithm, self.seeds = algorithm, seeds
+        batched = lambda f: jax.jit(jax.vmap(f))
+        self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
+        self.learn, self.evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
+        self.checkpoints = Checkpoints(run_dir / "checkpoints")
+        self.metrics_file = run_dir / "metrics.jsonl"
+        self.learning_file = run_dir / "learning.jsonl"
+        self.records: list[dict] = []
+        self.learning: list[dict] = []
+        self.start_time = None     # of the optimization iterations (wall_s counts from it)
+
+    def start(self):
+        """(state, counters): from the latest checkpoint (the files cut back to it), or from the
+        bootstrap (initial rollout and learning phase) of fresh states."""
+        algorithm, seeds = self.algorithm, self.seeds
+        template = stack_seeds([algorithm.init(seed) for seed in seeds])
+        counters = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0,
+                    "loss_before_retrain": np.full(len(seeds), np.nan)}
+        if self.checkpoints.latest() is not None:
+            state, counters = self.checkpoints.restore(template, counters)
+            self.records = _read_metrics(self.metrics_file, int(counters["metrics_lines"]))
+            self.learning = _read_metrics(self.learning_file, int(counters["learning_lines"]))
+        else:
+            phase_start = time.perf_counter()
+            state, stats = jax.block_until_ready(self.bootstrap(shard_seeds(template)))
+            self.learning = (_learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
+                             if algorithm.observer.learned else [])
+            counters["learning_lines"] = len(self.learning)
+            self.checkpoints.save(0, state, counters)
+        for path, lines in ((self.metrics_file, self.records),
+                            (self.learning_file, self.learning)):
+            with open(path, "w") as out:
+                out.writelines(json.dumps(r) + "\n" for r in lines)
+        self.start_time = time.perf_counter()
+        return shard_seeds(state), counters
+
+    def optimization_phase(self, state, episode: int, iterations: int, before, bar):
+        """The episode's optimization iterations, each seed's metrics written as they come."""
+        stats = jax.tree.map(np.asarray, state.stats)
+        with open(self.metrics_file, "a") as out:
+            for iteration in range(iterations):
+                state, metrics = self.optimize(state)
                 metrics = jax.tree.map(np.asarray, metrics)
-                step = episode * loop.iterations + iteration
-                new = _iteration_records(metrics, stats, np.asarray(state.design), seeds,
+                step = episode * iterations + iteration
+                new = _iteration_records(metrics, stats, np.asarray(state.design), self.seeds,
                                          (episode, iteration, step),
                                          before if iteration == 1 else None,
-                                         time.perf_counter() - start)
+                                         time.perf_counter() - self.start_time)
                 out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
-                records += new
+                self.records += new
                 finite = metrics["task_loss"][np.isfinite(metrics["task_loss"])]
                 bar.update(episode, iteration, float(finite.mean()) if finite.size else np.nan)
-                _warn_unhealthy(metrics, seeds, episode, iteration)
-            if retrains:
-                before = np.asarray(evaluate(state), np.float64)
-                phase_start = time.perf_counter()
-                with bar.learning(episode):
-                    state, stats = jax.block_until_ready(learn(state))
-                phase = _learning_records(stats, seeds, episode + 1,
-                                          time.perf_counter() - phase_start)
-                with open(learning_file, "a") as log:
-                    log.writelines(json.dumps(r) + "\n" for r in phase)
-                learning += phase
-            else:
-                before = np.full(config.seeds, np.nan)
-            checkpoints.save(episode + 1, state, {
-                "episodes_done": episode + 1, "metrics_lines": len(records),
-                "learning_lines": len(learning), "loss_before_retrain": before})
-    bar.close()
-    checkpoints.close()
-    if episodes == loop.episodes:
-        _save_final(run_dir / "final", state)
-        _save_best(run_dir, state, seeds)
-    return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=records)
+                _warn_unhealthy(metrics, self.seeds, episode, iteration)
+        return state
+
+    def learning_phase(self, state, episode: int):
+        """The learning phase after `episode`, its statistics appended to learning.jsonl."""
+        phase_start = time.perf_counter()
+        state, stats = jax.block_until_ready(self.learn(state))
+        phase = _learning_records(stats, self.seeds, episode + 1,
+                                  time.perf_counter() - phase_start)
+        with open(self.learning_file, "a") as log:
+            log.writelines(json.dumps(r) + "\n" for r in phase)
+        self.learning += phase
+        return state
 
 
 def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:

@@ -68,6 +68,7 @@ def test_final_parameters_are_saved_and_load(vae_run):
     assert (vae_run.run_dir / "run.json").exists()
 
 
+@pytest.mark.slow
 def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
     run_dir = tmp_path / "killed"
     process = subprocess.Popen([sys.executable, "-m", "tests.loop.tiny", str(run_dir), "3"], cwd=ROOT,

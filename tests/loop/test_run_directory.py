@@ -54,6 +54,7 @@ def lines(path):
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd):
     config = tiny_config(loop={"episodes": 2}, seeds=1)
     directory = tmp_path / "damaged"

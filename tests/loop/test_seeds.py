@@ -8,6 +8,7 @@ import sys
 
 import jax
 import numpy as np
+import pytest
 
 from litl.loop.algorithm import make_algorithm, seed_slice, stack_seeds
 from litl.loop.run import run
@@ -33,6 +34,7 @@ def episode_of(algorithm, batched):
     return one_episode
 
 
+@pytest.mark.slow
 def test_vmapped_seeds_equal_sequential_runs(x64):
     algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
     seeds = (3, 4)

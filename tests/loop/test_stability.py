@@ -5,6 +5,7 @@ import json
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
 from litl.loop.run import load_final, run
@@ -75,6 +76,7 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
     assert (tmp_path / "robot.png") in written and not (tmp_path / "robot.gif").exists()
 
 
+@pytest.mark.slow
 def test_best_parameters_are_saved_and_pictures_work_with_a_clocked_controller(tmp_path):
     config = tiny_config(controller={"period": 0.05}, seeds=1,
                          loop={"episodes": 1, "iterations": 3})
