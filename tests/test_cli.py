@@ -58,6 +58,14 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     for name in ("robots.png", "task_loss.png", "robot.gif", "saliency.gif", "snapshots.png",
                  "latent_sweeps.png"):
         assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
+    # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss.
+    replay = subprocess.run([sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
+                            cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert replay.returncode == 0, replay.stderr[-3000:]
+    summary = json.loads((run_dir / "replay" / "seed1.json").read_text())
+    assert summary["task_loss"] == summary["recorded_loss"] == json.loads(
+        (run_dir / "final.json").read_text())[1]["task_loss"]
+    assert (run_dir / "replay" / "seed1.gif").stat().st_size > 1000
 
 
 @pytest.mark.parametrize("override, message", [

@@ -12,7 +12,8 @@ writes into the run directory:
   for all seeds, compilation included in phase 0) and val_recon_history (validation
   reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
-* `final/`: the final parameters of every seed (controller, design, observer);
+* `final/`: the final parameters of every seed (controller, design, observer), and `final.json`
+  their task loss per seed (a forward simulation after the last update);
 * `best/` and `best.json`: the parameters of each seed's best rollout, its task loss and iteration.
 
 An iteration whose rollout blew up, lost particles or gave a non-finite loss or gradient changes
@@ -218,6 +219,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
     if episodes == loop.episodes:
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, shell.seeds)
+        _save_final_losses(run_dir, shell.evaluate(state), shell.seeds)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state),
                      metrics=shell.records)
 
@@ -418,6 +420,14 @@ def _save_best(run_dir: pathlib.Path, state: LoopState, seeds):
     summary = [{"seed": seed, "task_loss": _json_value(losses[s]), "step": int(steps[s])}
                for s, seed in enumerate(seeds)]
     (run_dir / "best.json").write_text(json.dumps(summary, indent=1))
+
+
+def _save_final_losses(run_dir: pathlib.Path, losses, seeds):
+    """final.json: the task loss of each seed's final parameters (one more forward simulation;
+    `python -m litl.replay` reproduces it)."""
+    losses = np.asarray(losses)
+    summary = [{"seed": seed, "task_loss": _json_value(losses[s])} for s, seed in enumerate(seeds)]
+    (run_dir / "final.json").write_text(json.dumps(summary, indent=1))
 
 
 def load_final(run_dir, robot: Robot, config: Config, which: str = "final") -> dict:

@@ -51,7 +51,8 @@ def _writer(suffix: str, fps: float):
 
 
 def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: int = 1,
-                    dpi: int = 80, show_targets: bool = True, colorbar: bool = True) -> Path:
+                    dpi: int = 80, show_targets: bool = True, colorbar: bool = True,
+                    stiffness=None, stiffness_range=None) -> Path:
     """Write an animation of a rollout to `path` (``.gif`` always, ``.mp4`` with ffmpeg).
 
     Frame k shows ``positions[k * stride]`` with particles coloured by ``actuation[k * stride]``.
@@ -67,7 +68,10 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
       stride: draw every `stride`-th frame.
       dpi: resolution (dots per inch; the figure is 5-6 inches wide).
       show_targets: draw reach targets and X's at the reaching groups' centroids.
-      colorbar: add a colour bar of the actuation scale.
+      colorbar: add a colour bar of the colour scale.
+      stiffness: (R,) Young's modulus per design region (a design φ): colour the particles by
+        it (``viridis`` over `stiffness_range`, default the values' range) instead of by
+        actuation.
 
     Returns:
       The path written.
@@ -91,12 +95,17 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
     # A bare Figure (not pyplot's): nothing pops up in interactive sessions and nothing leaks.
     fig = Figure(figsize=(6.0, 5.0) if layout.dim == 3 else (6.0, 4.5), dpi=dpi)
     FigureCanvasAgg(fig)
+    coloring = ({"stiffness": stiffness, "stiffness_range": stiffness_range}
+                if stiffness is not None else {})
+    first_actuation = None if stiffness is not None else actuation[0]
     if layout.dim == 3:
-        ax = draw_robot_3d(robot, fig.add_subplot(projection="3d"), positions[0], actuation[0],
-                           show_targets, colorbar=colorbar)
+        ax = draw_robot_3d(robot, fig.add_subplot(projection="3d"), positions[0],
+                           first_actuation, show_targets, colorbar=colorbar, **coloring)
     else:
-        ax = draw_robot(robot, fig.add_subplot(), positions[0], actuation[0], show_targets,
-                        colorbar=colorbar)
+        ax = draw_robot(robot, fig.add_subplot(), positions[0], first_actuation, show_targets,
+                        colorbar=colorbar, **coloring)
+    fixed = (particle_colors(layout, stiffness=stiffness, stiffness_range=stiffness_range)
+             if stiffness is not None else None)
     particles = next(a for a in ax.get_children() if a.get_gid() == "particles")
     crosses = [a for a in ax.get_children() if a.get_gid() == "reach_group"]
     groups = [layout.groups[g] for g in resolve(robot)[3]] if show_targets else []
@@ -104,7 +113,7 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
 
     def update(frame):
         x = positions[frame]
-        colors = particle_colors(layout, actuation[frame])
+        colors = fixed if fixed is not None else particle_colors(layout, actuation[frame])
         if layout.dim == 3:
             particles._offsets3d = tuple(to_plot_3d(x).T)
             for cross, group in zip(crosses, groups):

@@ -1,4 +1,4 @@
-"""Pictures of robots: particles coloured by actuator, design region or actuation (matplotlib).
+"""Pictures of robots: particles coloured by actuator, design region, actuation or stiffness.
 
 In the style of the paper's Fig. 4 insets: particles drawn as small squares, passive material in
 light grey, each actuator in its own colour, pinned particles dark grey, particle groups that must
@@ -17,7 +17,8 @@ The artists carry ``gid``s so that callers (and tests) can find and restyle them
 ``"reach_group"`` (one X per group that must reach a target).
 
 Actuation colours: ``RdBu`` over the fixed range [-1, 1]. A positive actuation adds tension along
-the fiber, so the material contracts (blue); a negative one makes it expand (red).
+the fiber, so the material contracts (blue); a negative one makes it expand (red). Stiffness
+colours (a design φ: Young's modulus per region): ``viridis`` over the design bounds.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ ACTUATOR_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#9467bd", "#8c564b", "#e37
 ACTUATION_CMAP = "RdBu"
 ACTUATION_NORM = mcolors.Normalize(vmin=-1.0, vmax=1.0)
 ACTUATION_LABEL = "actuation (+1 contracts, -1 expands)"
+STIFFNESS_CMAP = "viridis"
+STIFFNESS_LABEL = "Young's modulus E of the region"
 
 
 class VizError(ValueError):
@@ -118,7 +121,15 @@ def actuator_colors(n_actuators: int) -> np.ndarray:
     return plt.get_cmap("hsv")(np.arange(n_actuators) / n_actuators)
 
 
-def particle_colors(layout: Layout, actuation=None, show_regions: bool = False) -> np.ndarray:
+def stiffness_norm(stiffness, stiffness_range=None) -> mcolors.Normalize:
+    """The colour scale of a design: `stiffness_range` (E_min, E_max), or the values' range."""
+    low, high = stiffness_range if stiffness_range is not None else (
+        float(np.min(stiffness)), float(np.max(stiffness)))
+    return mcolors.Normalize(vmin=low, vmax=high if high > low else low + 1.0)
+
+
+def particle_colors(layout: Layout, actuation=None, show_regions: bool = False,
+                    stiffness=None, stiffness_range=None) -> np.ndarray:
     """(n, 4) RGBA colour of every particle.
 
     Args:
@@ -127,15 +138,25 @@ def particle_colors(layout: Layout, actuation=None, show_regions: bool = False) 
         actuator's value on the ``RdBu`` colormap over [-1, 1]; passive particles stay light grey.
         Without it, each actuator gets its own colour.
       show_regions: colour by design region instead (cannot be combined with `actuation`).
+      stiffness: (R,) Young's modulus per design region (a design φ): colour every particle by
+        its region's value on ``viridis`` over `stiffness_range` (default: the values' range);
+        cannot be combined with `actuation` or `show_regions`.
 
     Pinned particles are dark grey in every mode: they do not move, whatever their labels say.
     """
-    if show_regions and actuation is not None:
-        raise VizError("show_regions and actuation both pick the colours; pass only one")
+    if sum((show_regions, actuation is not None, stiffness is not None)) > 1:
+        raise VizError("show_regions, actuation and stiffness each pick the colours; pass only one")
     n = layout.n_particles
     colors = np.tile(mcolors.to_rgba(PASSIVE_COLOR), (n, 1))
     actuated = layout.actuator >= 0
-    if show_regions:
+    if stiffness is not None:
+        stiffness = np.asarray(stiffness, np.float64)
+        if stiffness.shape != (layout.n_regions,):
+            raise VizError(f"stiffness must have one value per design region, shape "
+                           f"({layout.n_regions},), got {stiffness.shape}")
+        norm = stiffness_norm(stiffness, stiffness_range)
+        colors = plt.get_cmap(STIFFNESS_CMAP)(norm(stiffness[layout.region]))
+    elif show_regions:
         # Set3 rather than tab10, whose first colours are those of actuators 0, 1, ...
         cmap = plt.get_cmap("Set3" if layout.n_regions <= 12 else "tab20")
         colors = cmap(layout.region % cmap.N)
@@ -194,7 +215,8 @@ def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
 
 
 def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: bool = True,
-               show_regions: bool = False, *, config=None, task=None, colorbar: bool = False):
+               show_regions: bool = False, *, config=None, task=None, colorbar: bool = False,
+               stiffness=None, stiffness_range=None):
     """Draw a 2D robot (rest pose or any state) on a matplotlib Axes.
 
     Args:
@@ -208,7 +230,9 @@ def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: boo
       config: with a bare `Layout`, the `SimConfig` whose domain and walls to draw; without one
         the view fits the particles and no walls are drawn.
       task: with a bare `Layout`, the `Task` whose reach targets to draw.
-      colorbar: with `actuation`, add a colour bar of the actuation scale.
+      colorbar: with `actuation` or `stiffness`, add a colour bar of its scale.
+      stiffness, stiffness_range: colour by a design's Young's modulus per region instead (see
+        `particle_colors`).
 
     Returns:
       The Axes. Equal aspect, limits the domain. Particle marker sizes follow the Axes' size at the
@@ -222,7 +246,7 @@ def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: boo
     _check_dim(name, layout, 2)
     positions = check_positions(name, layout, positions)
     actuation = check_actuation(name, layout, actuation)
-    colors = particle_colors(layout, actuation, show_regions)
+    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range)
     limits = _view_limits(layout, positions, config, targets)
     if ax is None:
         aspect = (limits[1][1] - limits[1][0]) / (limits[0][1] - limits[0][0])
@@ -241,8 +265,8 @@ def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: boo
             ax.add_patch(Rectangle(lo, hi[0] - lo[0], hi[1] - lo[1], facecolor=PINNED_COLOR,
                                    alpha=0.3, hatch="//", edgecolor=PINNED_COLOR, zorder=1,
                                    gid="pinned_box"))
-    if colorbar and actuation is not None:
-        add_actuation_colorbar(ax)  # first: it shrinks the Axes, which sets the marker size
+    if colorbar:   # first: it shrinks the Axes, which sets the marker size
+        _add_colorbar(ax, actuation, stiffness, stiffness_range)
     ax.scatter(positions[:, 0], positions[:, 1], s=_marker_size(ax, particle_side(layout)),
                c=colors, marker="s", linewidths=0, zorder=2, gid="particles")
     if show_targets:
@@ -265,6 +289,21 @@ def add_actuation_colorbar(ax, **kwargs):
     return ax.figure.colorbar(mappable, ax=ax, **kwargs)
 
 
+def add_stiffness_colorbar(ax, stiffness, stiffness_range=None, **kwargs):
+    """A colour bar of the stiffness scale (``viridis``) beside `ax`; returns it."""
+    mappable = plt.cm.ScalarMappable(norm=stiffness_norm(stiffness, stiffness_range),
+                                     cmap=STIFFNESS_CMAP)
+    kwargs = {"shrink": 0.8, "label": STIFFNESS_LABEL, **kwargs}
+    return ax.figure.colorbar(mappable, ax=ax, **kwargs)
+
+
+def _add_colorbar(ax, actuation, stiffness, stiffness_range, **kwargs):
+    if stiffness is not None:
+        add_stiffness_colorbar(ax, stiffness, stiffness_range, **kwargs)
+    elif actuation is not None:
+        add_actuation_colorbar(ax, **kwargs)
+
+
 # ---------------------------------------------------------------------------- 3D
 
 
@@ -275,7 +314,7 @@ def to_plot_3d(points: np.ndarray) -> np.ndarray:
 
 def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: bool = True,
                   show_regions: bool = False, *, config=None, task=None, colorbar: bool = False,
-                  elev: float = 20.0, azim: float = -65.0):
+                  stiffness=None, stiffness_range=None, elev: float = 20.0, azim: float = -65.0):
     """Draw a 3D robot as a scatter on a mplot3d Axes (same colour rules as `draw_robot`).
 
     The simulation's axis 1 ("up") is drawn vertically and axis 2 (depth) into the picture; the
@@ -287,7 +326,8 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
       ax: a 3D Axes (``fig.add_subplot(projection="3d")``); None: a new figure.
       positions: (n, 3) particle positions; None: the rest positions.
       actuation: (m,) actuation of each actuator (see `draw_robot`).
-      show_targets, show_regions, config, task, colorbar: as in `draw_robot`.
+      show_targets, show_regions, config, task, colorbar, stiffness, stiffness_range: as in
+        `draw_robot`.
       elev, azim: camera angles passed to ``ax.view_init``.
 
     Returns:
@@ -300,7 +340,7 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
     _check_dim(name, layout, 3)
     positions = check_positions(name, layout, positions)
     actuation = check_actuation(name, layout, actuation)
-    colors = particle_colors(layout, actuation, show_regions)
+    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range)
     if ax is None:
         ax = plt.figure(figsize=(6.0, 5.0)).add_subplot(projection="3d")
     elif getattr(ax, "name", "") != "3d":
@@ -332,8 +372,8 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
             center = to_plot_3d(positions[layout.groups[group]].mean(axis=0))
             ax.scatter(*center, s=80, color="black", marker="x", linewidths=2, zorder=4,
                        gid="reach_group")
-    if colorbar and actuation is not None:
-        add_actuation_colorbar(ax, shrink=0.6)
+    if colorbar:
+        _add_colorbar(ax, actuation, stiffness, stiffness_range, shrink=0.6)
     ax.set_xlabel("x")
     ax.set_ylabel("depth")
     ax.set_zlabel("up")

@@ -140,6 +140,27 @@ def test_show_regions_colours_by_design_region(robot2d):
         particle_colors(layout, actuation=[0.0, 0.0], show_regions=True)
 
 
+def test_stiffness_colours_each_region_by_its_youngs_modulus(robot2d, tmp_path):
+    layout = robot2d.layout
+    stiffness = np.asarray([15.0, 30.0, 22.5])             # E per region, on the scale [15, 30]
+    ax = draw_robot(robot2d, stiffness=stiffness, stiffness_range=(15.0, 30.0), colorbar=True)
+    colors = particle_facecolors(ax)
+    viridis = plt.get_cmap("viridis")
+    free = ~layout.pinned
+    for region, value in zip(range(3), (0.0, 1.0, 0.5)):
+        np.testing.assert_allclose(colors[free & (layout.region == region)],
+                                   np.broadcast_to(viridis(value), (np.sum(free & (layout.region == region)), 4)))
+    assert ax.figure.axes[-1].get_ylabel() == "Young's modulus E of the region"
+    with pytest.raises(VizError, match="one value per design region, shape \\(3,\\)"):
+        particle_colors(layout, stiffness=[20.0])
+    with pytest.raises(VizError, match="only one"):
+        particle_colors(layout, actuation=[0.0, 0.0], stiffness=stiffness)
+    path = animate_rollout(robot2d, np.repeat(layout.positions[None], 2, 0),
+                           np.zeros((2, layout.n_actuators)), tmp_path / "stiff.gif",
+                           stiffness=stiffness, stiffness_range=(15.0, 30.0))
+    assert path.stat().st_size > 0
+
+
 def test_positions_are_drawn_and_a_layout_can_stand_in_for_a_robot(robot2d):
     moved = robot2d.layout.positions + np.array([0.3, 0.2])
     (particles,) = with_gid(draw_robot(robot2d, positions=moved), "particles")

@@ -1,0 +1,228 @@
+"""`python -m litl.replay RUN_DIR`: simulate a trained robot again and draw it.
+
+    python -m litl.replay outputs/demo/biped/vae/<time>                 # seed 0's final robot
+    python -m litl.replay RUN_DIR --seed 2 --steps 2000 --out walk.mp4  # longer, another seed
+    python -m litl.replay RUN_DIR --which best --color stiffness        # best rollout, by E
+
+It rebuilds the run's robot and settings (from `.hydra/config.yaml` for a CLI run, else from
+`run.json`), loads the saved controller, design and observer (`final/` or `best/`), simulates
+them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
+
+* the animation (.gif, or .mp4 with ffmpeg): particles coloured by actuation, or by the learned
+  Young's modulus per region (`--color stiffness`); 3D robots in perspective;
+* `<name>_design.png`: the robot at rest coloured by its learned stiffness, with the bounds;
+* `<name>.json`: seed, steps, the task loss and its components, and the loss the run recorded for
+  the same parameters (`final.json` or `best.json`), which the replay reproduces at the run's
+  own step count.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+from litl.config import Config, SettingsError, from_dict
+
+
+class ReplayError(ValueError):
+    """The run directory cannot be replayed; the message says why and what to do."""
+
+
+def load_run_config(run_dir: pathlib.Path):
+    """(robot, config) of a run directory, rebuilt as the run built them."""
+    from litl.app import build_robot, check_observer
+
+    run_dir = pathlib.Path(run_dir)
+    try:
+        saved = json.loads((run_dir / "run.json").read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise ReplayError(f"{run_dir} is not a litl run directory: its run.json cannot be read "
+                          f"({error}); give the directory `python -m litl` printed") from None
+    if "config" not in saved:
+        raise ReplayError(f"{run_dir / 'run.json'} was written by an earlier version of litl (no "
+                          f"'config'); it cannot be replayed")
+    hydra_config = run_dir / ".hydra" / "config.yaml"
+    if hydra_config.exists():        # the CLI's own record: robot, task and material included
+        from omegaconf import OmegaConf
+
+        plain = OmegaConf.to_container(OmegaConf.load(hydra_config), resolve=True)
+        config = from_dict(Config, plain)
+        robot = build_robot(config)
+    else:                            # a Python API run: the robot by name, dx and material
+        import litl.robots
+        from litl.robots import Material
+
+        config = from_dict(Config, saved["config"])
+        robot = litl.robots.get(saved["robot"], dx=saved["dx"])
+        material = Material(**saved.get("material", {}))
+        if material != robot.material:
+            robot = robot.with_material(material)
+    check_observer(config)
+    found = {"robot": robot.name, "particles": robot.layout.n_particles, "dt": robot.config.dt}
+    recorded = {key: saved.get(key) for key in found}
+    if found != recorded:
+        raise ReplayError(f"the robot rebuilt from {run_dir} ({found}) is not the run's "
+                          f"({recorded}); was the robot's definition changed since the run?")
+    return robot, config
+
+
+def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
+           which: str = "final", color: str = "actuation", stride: int = 10) -> dict:
+    """Simulate a saved robot again and write its animation, design picture and losses.
+
+    Args:
+      run_dir: a finished run's directory (it holds `final/` or `best/`).
+      seed: which seed (default: the run's first).
+      steps: simulation steps (default: the run's own).
+      out: the animation's path (.gif or .mp4); default `run_dir/replay/seed<N>.gif`.
+      which: ``"final"`` (after the last iteration) or ``"best"`` (each seed's best rollout).
+      color: ``"actuation"`` or ``"stiffness"`` (the learned Young's modulus per region).
+      stride: simulation steps per animation frame.
+
+    Returns:
+      The summary written to `<out>.json` (seed, steps, task_loss, components, recorded_loss,
+      files).
+    """
+    import jax
+    import numpy as np
+
+    from litl.loop import load_final, make_algorithm, stack_seeds
+    from litl.viz import animate_rollout, draw, record_rollout
+
+    run_dir = pathlib.Path(run_dir)
+    if which not in ("final", "best"):
+        raise ReplayError(f"--which {which!r}: choose final or best")
+    if color not in ("actuation", "stiffness"):
+        raise ReplayError(f"--color {color!r}: choose actuation or stiffness")
+    if not (run_dir / which).is_dir():
+        raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished "
+                          f"(resume it with the same command) or is not a litl run directory")
+    robot, config = load_run_config(run_dir)
+    seeds = [config.seed + s for s in range(config.seeds)]
+    seed = seeds[0] if seed is None else seed
+    if seed not in seeds:
+        raise ReplayError(f"--seed {seed}: the run has seeds {seeds}")
+    if steps is not None and (not isinstance(steps, int) or steps < 1):
+        raise ReplayError(f"--steps {steps}: must be a positive integer")
+    if not isinstance(stride, int) or stride < 1:
+        raise ReplayError(f"--stride {stride}: must be a positive integer")
+    out = pathlib.Path(out) if out is not None else run_dir / "replay" / f"seed{seed}.gif"
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise ReplayError(f"--out {out}: use a .gif or .mp4 file name")
+
+    if steps is not None:
+        config = config.replace(sim={"steps": steps})
+    algorithm = make_algorithm(robot, config)
+    saved = load_final(run_dir, robot, config, which)
+    index = seeds.index(seed)
+    # The run's own evaluation, batched over its seeds exactly as the run did it.
+    template = stack_seeds([algorithm.init(s) for s in seeds])
+    state = template.replace(controller=saved["controller"], design=saved["design"],
+                             observer=saved["observer"])
+    losses = np.asarray(jax.jit(jax.vmap(algorithm.evaluate))(state))
+    one = jax.tree.map(lambda leaf: np.asarray(leaf)[index], saved)
+    steps = algorithm.steps
+    components = _components(robot, algorithm, one, steps)
+
+    space = robot.design_space
+    design = np.asarray(one["design"])
+    positions, actuation = record_rollout(
+        robot, algorithm.policy, (one["controller"], one["observer"]), steps,
+        design=space.to_design(design), stride=min(stride, steps), check=False)
+    coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" \
+        else {}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    animate_rollout(robot, positions, actuation, out, fps=20, **coloring)
+    picture = out.with_name(out.stem + "_design.png")
+    _draw_design(robot, design, space.bounds, picture, draw)
+
+    recorded = _recorded_loss(run_dir, which, seed)
+    summary = {
+        "run_dir": str(run_dir), "seed": seed, "which": which, "steps": steps,
+        "run_steps": json.loads((run_dir / "run.json").read_text())["steps"],
+        "task_loss": float(losses[index]), "components": components,
+        "recorded_loss": recorded,
+        "design": design.tolist(), "design_bounds": list(space.bounds),
+        "files": [str(out), str(picture)],
+    }
+    out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
+    return summary
+
+
+def _components(robot, algorithm, params, steps) -> dict:
+    """The task loss's components for one seed's parameters (an unbatched forward simulation)."""
+    import jax
+    import numpy as np
+
+    from litl.sim import make_rollout
+
+    rollout = jax.jit(make_rollout(robot.config, robot.body(), algorithm.policy, steps))
+    initial = robot.initial_state()
+    final, _ = rollout((params["controller"], params["observer"]),
+                       robot.design_space.to_design(params["design"]), initial)
+    _, components = robot.task_loss()(initial, final)
+    return {name: float(np.asarray(value)) for name, value in components.items()}
+
+
+def _recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
+    """The loss the run recorded for the same parameters (None if it recorded none)."""
+    path = run_dir / f"{which}.json"
+    if not path.exists():
+        return None
+    return next((r["task_loss"] for r in json.loads(path.read_text()) if r["seed"] == seed), None)
+
+
+def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = draw(robot, stiffness=design, stiffness_range=bounds, colorbar=True, show_targets=False)
+    values = ", ".join(f"{v:.3g}" for v in design)
+    ax.set_title(f"{robot.name}: learned E per region [{values}] in [{bounds[0]:g}, {bounds[1]:g}]",
+                 fontsize=9)
+    ax.figure.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(ax.figure)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m litl.replay",
+        description="Simulate a trained robot from a run directory again and write its "
+                    "animation, a picture of its learned design and its task loss.")
+    parser.add_argument("run_dir", type=pathlib.Path, help="a finished run's directory")
+    parser.add_argument("--seed", type=int, default=None, help="which seed (default: the first)")
+    parser.add_argument("--steps", type=int, default=None,
+                        help="simulation steps (default: the run's own episode)")
+    parser.add_argument("--out", type=pathlib.Path, default=None,
+                        help="animation file, .gif or .mp4 (default: RUN_DIR/replay/seed<N>.gif)")
+    parser.add_argument("--which", choices=("final", "best"), default="final",
+                        help="the final parameters or each seed's best rollout's")
+    parser.add_argument("--color", choices=("actuation", "stiffness"), default="actuation",
+                        help="colour particles by actuation or by the learned Young's modulus")
+    parser.add_argument("--stride", type=int, default=10, help="simulation steps per frame")
+    args = parser.parse_args(argv)
+    from litl.__main__ import USER_ERRORS
+    from litl.viz import VizError
+
+    try:
+        summary = replay(args.run_dir, args.seed, args.steps, args.out, args.which, args.color,
+                         args.stride)
+    except (ReplayError, VizError, SettingsError, *USER_ERRORS) as error:
+        print(f"litl.replay: error: {error}", file=sys.stderr)
+        return 2
+    recorded = summary["recorded_loss"]
+    same = ("" if recorded is None else
+            f" (the run recorded {recorded:.6g} for these parameters)"
+            if summary["steps"] == summary["run_steps"] else
+            f" (the run recorded {recorded:.6g} at its {summary['run_steps']} steps)")
+    print(f"litl.replay: seed {summary['seed']}, {summary['steps']} steps: task loss "
+          f"{summary['task_loss'] + 0.0:.6g}{same}; wrote {', '.join(summary['files'])}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

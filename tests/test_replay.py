@@ -1,0 +1,65 @@
+"""`python -m litl.replay`: a saved robot simulated again reproduces the run's recorded loss, and
+its animation, design picture and summary are written; bad requests fail clearly."""
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from litl.loop.run import run
+from litl.replay import ReplayError, main, replay
+from tests.loop.tiny import tiny_config, tiny_robot
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    """A Python API run (no .hydra record): k-means, two seeds, one episode."""
+    run_dir = tmp_path_factory.mktemp("replay") / "run"
+    run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"episodes": 1}), run_dir,
+        progress=False)
+    return run_dir
+
+
+def test_replay_reproduces_the_recorded_final_and_best_losses(finished_run, tmp_path):
+    final = json.loads((finished_run / "final.json").read_text())
+    for seed in (0, 1):
+        summary = replay(finished_run, seed=seed, out=tmp_path / f"seed{seed}.gif")
+        assert summary["task_loss"] == summary["recorded_loss"] == final[seed]["task_loss"]
+        assert summary["steps"] == summary["run_steps"] == 40
+        assert summary["components"]["distance"] == pytest.approx(-summary["task_loss"], abs=1e-6)
+    best = replay(finished_run, seed=1, which="best", out=tmp_path / "best.gif")
+    assert best["task_loss"] == pytest.approx(best["recorded_loss"], abs=1e-6)
+
+
+def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_path):
+    out = tmp_path / "walk.gif"
+    assert main([str(finished_run), "--seed", "1", "--steps", "60", "--out", str(out),
+                 "--color", "stiffness", "--stride", "5"]) == 0
+    summary = json.loads(out.with_suffix(".json").read_text())
+    assert summary["steps"] == 60 and summary["seed"] == 1
+    with Image.open(out) as gif:
+        assert gif.n_frames == 12                                 # 60 steps, one frame per 5
+    design = np.asarray(Image.open(tmp_path / "walk_design.png"))
+    assert design.shape[0] > 200 and design.std() > 10            # a picture, not a blank
+    low, high = summary["design_bounds"]
+    assert all(low <= e <= high for e in summary["design"])
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--seed", "7"], "--seed 7: the run has seeds \\[0, 1\\]"),
+    (["--out", "walk.png"], "use a .gif or .mp4"),
+    (["--steps", "0"], "--steps 0: must be a positive integer"),
+])
+def test_bad_requests_fail_clearly(finished_run, tmp_path, capsys, arguments, message):
+    assert main([str(finished_run), *arguments]) == 2
+    import re
+    assert re.search(message, capsys.readouterr().err)
+
+
+def test_a_directory_that_is_not_a_finished_run_is_refused(tmp_path):
+    with pytest.raises(ReplayError, match="no final/ parameters"):
+        replay(tmp_path)
+    (tmp_path / "final").mkdir()
+    with pytest.raises(ReplayError, match="run.json cannot be read"):
+        replay(tmp_path)
