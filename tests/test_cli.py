@@ -7,6 +7,7 @@ installed (the README's commands install it non-editable) and the source tree ot
 
 import importlib.metadata
 import json
+import re
 import os
 import pathlib
 import subprocess
@@ -108,6 +109,21 @@ def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
     with pytest.raises(ValueError, match=message):
         config = compose([override, "+scale=smoke"])
         make_algorithm(build_robot(config), config)
+
+
+def test_help_explains_every_group_and_hides_the_schema(tmp_path):
+    done = litl_command(["--help"], tmp_path, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    described, options = done.stdout.split("== Options of each group ==")
+    groups = sorted(p.name for p in (ROOT / "litl" / "conf").iterdir() if p.is_dir()
+                    and p.name != "__pycache__")
+    assert len(groups) == 11
+    for group in groups:
+        # A sentence in the group list, and its options below.
+        assert re.search(rf"^{group} +\S.{{20,}}", described, re.M), group
+        assert re.search(rf"^{group}: \w", options, re.M), group
+    assert "schema" not in done.stdout
+    assert "loop.episodes=3" in done.stdout and "python -m litl.replay" in done.stdout
 
 
 def test_material_and_design_bounds_from_the_command_line(tmp_path):
