@@ -18,11 +18,13 @@ import sys
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 from litl.app import run_experiment
 from litl.config import SettingsError, from_hydra, register_with_hydra
 from litl.loop.checkpoint import CheckpointError
+from litl.loop.progress import say, set_label
 from litl.loop.run import RunDirectoryError
 from litl.robots.catalog import UnknownRobotError
 from litl.robots.layout import LayoutError
@@ -44,6 +46,10 @@ def _main(cfg) -> None:
         config_files = {".hydra/config.yaml": OmegaConf.to_yaml(cfg),
                         ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
                         ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task))}
+        if hydra_config.mode == RunMode.MULTIRUN:
+            # Jobs of a sweep may run at once (joblib): each line says whose it is (Hydra's
+            # launch lines give each job number's overrides).
+            set_label(f"[job {hydra_config.job.num}] ")
         run_experiment(from_hydra(cfg), hydra_config.runtime.output_dir, config_files)
     except USER_ERRORS as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
@@ -52,7 +58,7 @@ def _main(cfg) -> None:
             _remove_if_unused(pathlib.Path(HydraConfig.get().runtime.output_dir))
         if os.environ.get("HYDRA_FULL_ERROR") == "1":
             raise
-        print(f"litl: error: {error}", file=sys.stderr)
+        say(f"litl: error: {error}")
         sys.exit(2)
 
 

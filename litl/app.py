@@ -13,12 +13,12 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import pathlib
-import sys
 
 import litl.robots
 from litl.config import RESOLUTIONS, Config, MaterialConfig, SettingsError, TaskKind, \
     from_hydra, register_with_hydra
 from litl.loop import run
+from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
@@ -99,10 +99,9 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     robot = build_robot(config)
     check_observer(config)
     run_dir = pathlib.Path(run_dir)
-    print(f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
-          f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
-          f"{config.loop.episodes} x {config.loop.iterations} iterations -> {run_dir}",
-          file=sys.stderr)
+    say(f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
+        f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
+        f"{config.loop.episodes} x {config.loop.iterations} iterations -> {run_dir}")
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):        # held through the pictures too
         result = run(robot, config, run_dir, progress=config.output.progress,
@@ -111,9 +110,10 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
             from litl.pictures import draw_run
 
             draw_run(robot, config, result, run_dir, animation=config.output.animation,
-                     pictures=config.output.pictures, stride=config.output.animation_stride)
+                     pictures=config.output.pictures, stride=config.output.animation_stride,
+                     progress=config.output.progress)
     final = [r["task_loss"] for r in result.metrics[-config.seeds:]]
     shown = ", ".join("n/a" if v is None else f"{v + 0.0:.6g}" for v in final)   # no "-0.0"
-    print(f"litl: final task loss per seed [{shown}]; results in {run_dir}", file=sys.stderr)
+    say(f"litl: final task loss per seed [{shown}]; results in {run_dir}")
     return result
 

@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import pathlib
-import sys
 
 import matplotlib
 
@@ -22,6 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from litl.loop import make_algorithm, seed_slice  # noqa: E402
+from litl.loop.progress import say  # noqa: E402
 from litl.models.kmeans import KMeansObserver  # noqa: E402
 from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402
@@ -34,27 +34,34 @@ SNAPSHOTS = 6
 
 
 def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: bool = True,
-             stride: int = 10) -> list[pathlib.Path]:
-    """Write the run's pictures into `run_dir`; return the files written."""
+             stride: int = 10, progress: bool = False) -> list[pathlib.Path]:
+    """Write the run's pictures into `run_dir`; return the files written. With `progress`, say
+    on stderr what is being drawn (the animation's rollout and the saliency take a while)."""
     run_dir = pathlib.Path(run_dir)
+    status = say if progress else (lambda message: None)
     written = []
     algorithm = make_algorithm(robot, config)
     # Only the animation needs a rollout; without it the pictures use seed 0 (whose parameters
     # are finite: failed iterations never update them).
     chosen, recording = 0, None
     if animation:
+        status("pictures: simulating the final robot for robot.gif")
         chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
     state = seed_slice(result.state, chosen if chosen is not None else 0)
     if pictures:
+        status("pictures: the report (task_loss.png, recon_loss.png, table1, summary.md)")
         written += write_report(run_dir).files
         figure = draw(robot).figure
         figure.savefig(run_dir / "robot.png", dpi=100)
         plt.close(figure)
         written.append(run_dir / "robot.png")
         if chosen is not None:
+            status("pictures: the observer's representation (clusters, or snapshots, latent "
+                   "sweeps and saliency)")
             written += _representation(robot, algorithm, state, run_dir,
                                        stride=config.loop.snapshot_stride)
     if animation and recording is not None:
+        status("pictures: robot.gif")
         written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
     return written
 
@@ -69,14 +76,13 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
                 robot, algorithm.policy, (state.controller, state.observer), steps,
                 design=robot.design_space.to_design(state.design), stride=min(stride, steps), check=True)
         except SimulationError as error:
-            print(f"pictures: skipping seed {config.seed + index}: {error}", file=sys.stderr)
+            say(f"pictures: skipping seed {config.seed + index}: {error}")
             continue
         if all(np.all(np.isfinite(a)) for a in recording):
             return index, recording
-        print(f"pictures: skipping seed {config.seed + index}: its rollout is not finite",
-              file=sys.stderr)
-    print("pictures: no seed has a finite final rollout; no animation or representation "
-          "pictures were drawn", file=sys.stderr)
+        say(f"pictures: skipping seed {config.seed + index}: its rollout is not finite")
+    say("pictures: no seed has a finite final rollout; no animation or representation "
+        "pictures were drawn")
     return None, None
 
 

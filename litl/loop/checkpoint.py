@@ -10,11 +10,12 @@ damaged later (a truncated file, lost metadata) is skipped on restore in favour 
 from __future__ import annotations
 
 import pathlib
-import sys
 
 import jax
 import numpy as np
 import orbax.checkpoint as ocp
+
+from litl.loop.progress import say
 
 
 class CheckpointError(RuntimeError):
@@ -66,9 +67,8 @@ class Checkpoints:
             for bad, reason in failures:
                 aside = self._free_name(f"damaged-{bad}")
                 (self.directory / str(bad)).rename(aside)
-                print(f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
-                      f"moved it to {aside} and resumed from checkpoint {step}",
-                      file=sys.stderr)
+                say(f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
+                    f"moved it to {aside} and resumed from checkpoint {step}")
             if failures:
                 self.manager.reload()
             return item["state"], item["counters"]

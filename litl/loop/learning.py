@@ -28,11 +28,13 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 
@@ -210,6 +212,27 @@ def _chunks(slots, mask, size):
     return slots, mask
 
 
+# Called from inside the jitted phase after every epoch with (epoch, validation loss), batched or
+# per seed: the progress display listens while a phase runs (`listen_to_epochs`).
+_EPOCH_LISTENERS: list = []
+
+
+@contextlib.contextmanager
+def listen_to_epochs(listener):
+    """Within the block, `listener(epoch, validation_loss)` (numpy, one entry per seed or
+    scalars) is called after every learning epoch of any phase that runs."""
+    _EPOCH_LISTENERS.append(listener)
+    try:
+        yield
+    finally:
+        _EPOCH_LISTENERS.remove(listener)
+
+
+def _epoch_done(epoch, validation):
+    for listener in list(_EPOCH_LISTENERS):
+        listener(np.asarray(epoch), np.asarray(validation))
+
+
 def make_learning_phase(model: ConvAutoencoder, config: LearningConfig) -> LearningPhase:
     """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
@@ -348,6 +371,7 @@ class LearningPhase:
                                   split.validation_mask)
         validation = means["total"].astype(state.best_loss.dtype)
         epoch = state.epoch + 1
+        jax.debug.callback(_epoch_done, epoch, validation)
         improved = validation < state.best_loss
         return _LearningState(
             epoch=epoch,

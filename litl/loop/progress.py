@@ -1,4 +1,11 @@
-"""A dependency-free progress bar for runs: episodes, iterations and the current loss."""
+"""Progress on stderr: a status line for runs (episodes, iterations, loss; epochs and validation
+loss during learning phases) and `say` for one-off messages, all with the job's label in sweeps.
+
+On a terminal the status line is redrawn in place; in a log (not a TTY) it prints one line per
+episode and one per learning phase. Hydra sweeps that run several jobs at once (the joblib
+launcher) interleave their output, so `python -m litl` sets a label per job (`set_label`) that
+starts every line.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +13,21 @@ import contextlib
 import sys
 import threading
 import time
+
+_LABEL = ""
+
+
+def set_label(label: str) -> None:
+    """Start every progress line and message with `label` (e.g. ``"[job 3] "``)."""
+    global _LABEL
+    _LABEL = label
+
+
+def say(message: str, stream=None) -> None:
+    """Print one labelled line to stderr."""
+    stream = stream or sys.stderr
+    stream.write(f"{_LABEL}{message}\n")
+    stream.flush()
 
 
 class Progress:
@@ -17,6 +39,11 @@ class Progress:
         self.enabled = enabled
         self.interactive = enabled and getattr(self.stream, "isatty", lambda: False)()
         self.start = time.perf_counter()
+
+    def _write(self, line: str, newline: bool) -> None:
+        self.stream.write(("\r" if self.interactive and not newline else "") + _LABEL + line +
+                          ("\n" if newline else " " * 8))
+        self.stream.flush()
 
     def update(self, episode: int, iteration: int, loss: float) -> None:
         if not self.enabled:
@@ -30,43 +57,50 @@ class Progress:
                 f"iteration {iteration + 1}/{self.iterations} loss {loss:+.5f} "
                 f"({elapsed:.0f} s)")
         if self.interactive:
-            self.stream.write("\r" + line)
+            self._write(line, newline=False)
         elif iteration + 1 == self.iterations:
-            self.stream.write(line + "\n")
-        self.stream.flush()
+            self._write(line, newline=True)
 
     @contextlib.contextmanager
     def learning(self, episode: int):
-        """Around a learning phase: on a terminal the line keeps moving (a ticking clock, redrawn
-        by a thread while the jitted phase runs); in logs one line when it ends."""
+        """Around a learning phase: on a terminal the line shows the epoch and validation loss as
+        they come (reported from inside the jitted phase, `litl.loop.learning.listen_to_epochs`)
+        and a ticking clock; in logs one line when it ends."""
+        from litl.loop.learning import listen_to_epochs
+
         if not self.enabled:
             yield
             return
         start = time.perf_counter()
         done = threading.Event()
+        latest = {"epoch": 0, "validation": float("nan")}
+
+        def on_epoch(epoch, validation):
+            latest["epoch"] = max(latest["epoch"], int(epoch.max()))
+            latest["validation"] = float(validation.mean())
 
         def line():
-            return (f"episode {episode + 1}/{self.episodes} learning phase "
-                    f"{time.perf_counter() - start:.1f} s (run {time.perf_counter() - self.start:.0f} s)")
+            return (f"episode {episode + 1}/{self.episodes} learning phase: epoch "
+                    f"{latest['epoch']}, validation loss {latest['validation']:.4g} "
+                    f"({time.perf_counter() - start:.1f} s; run {time.perf_counter() - self.start:.0f} s)")
 
         def tick():
             while not done.wait(0.25):
-                self.stream.write("\r" + line() + " " * 8)
-                self.stream.flush()
+                self._write(line(), newline=False)
 
         ticker = threading.Thread(target=tick, daemon=True) if self.interactive else None
         if ticker:
             ticker.start()
         try:
-            yield
+            with listen_to_epochs(on_epoch):
+                yield
         finally:
             done.set()
             if ticker:
                 ticker.join()
-                self.stream.write("\r" + line() + " " * 8)
+                self._write(line(), newline=False)
             else:
-                self.stream.write(line() + "\n")
-            self.stream.flush()
+                self._write(line(), newline=True)
 
     def close(self) -> None:
         if self.interactive:

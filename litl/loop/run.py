@@ -32,7 +32,6 @@ import json
 import math
 import os
 import pathlib
-import sys
 import time
 
 import jax
@@ -43,7 +42,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.config import Config, flatten
-from litl.loop.progress import Progress
+from litl.loop.progress import Progress, say
 from litl.robots.robot import Robot
 
 
@@ -395,14 +394,13 @@ def _warn_unhealthy(metrics, seeds, episode, iteration):
         where = f"seed {seed}, episode {episode}, iteration {iteration}"
         in_a_row = int(metrics["consecutive_skips"][s])
         if in_a_row == 1:
-            print(f"warning: {where}: {what}; iteration skipped (parameters, optimizer and replay "
-                  f"buffer unchanged)", file=sys.stderr)
+            say(f"warning: {where}: {what}; iteration skipped (parameters, optimizer and replay "
+                f"buffer unchanged)")
         elif in_a_row % MANY_SKIPS == 0:
-            print(f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
-                  f"(latest: {what}); it is stuck at its last good parameters. Lower "
-                  f"controller.learning_rate / loop.design_learning_rate or the actuator "
-                  f"strength",
-                  file=sys.stderr)
+            say(f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
+                f"(latest: {what}); it is stuck at its last good parameters. Lower "
+                f"controller.learning_rate / loop.design_learning_rate or the actuator "
+                f"strength")
 
 
 def _parameters(state) -> dict:

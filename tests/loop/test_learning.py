@@ -288,3 +288,25 @@ def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
     residual = ((design[validation] @ readout - target[validation]) ** 2).mean(0)
     expected = 1 - residual / target[validation].var(0)
     np.testing.assert_allclose(stats.velocity_r2, expected, rtol=1e-3, atol=1e-3)
+
+
+def test_the_progress_line_follows_the_epochs_of_a_running_phase(learn, params):
+    """Epoch and validation loss come out of the jitted phase as it runs (the progress display
+    listens); no listener, no output."""
+    import io
+
+    from litl.loop.progress import Progress
+
+    heard = []
+    buffer = buffer_of(moving_discs(20))
+    with learning.listen_to_epochs(lambda epoch, loss: heard.append((int(epoch), float(loss)))):
+        _, stats = jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
+    assert [epoch for epoch, _ in heard] == list(range(1, int(stats.epochs_used) + 1))
+    history = np.asarray(stats.val_recon_history)[:len(heard)]
+    assert np.all(np.isfinite([loss for _, loss in heard])) and np.all(np.isfinite(history))
+    log = io.StringIO()
+    with Progress(3, 2, stream=log).learning(0):
+        jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
+    assert f"learning phase: epoch {int(stats.epochs_used)}, validation loss" in log.getvalue()
+    learn(params, buffer, jax.random.key(2))          # nobody listening: nothing is called
+    assert len(heard) == int(stats.epochs_used)
