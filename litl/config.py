@@ -77,6 +77,13 @@ class FeatureGradient(enum.StrEnum):
     full = "full"                   # the paper's end-to-end backpropagation through them
 
 
+class LoggerKind(enum.StrEnum):
+    """Where a run's live logs go besides metrics.jsonl (`litl.loop.loggers`)."""
+    tensorboard = "tensorboard"     # event files in <run dir>/tensorboard/
+    wandb = "wandb"                 # Weights & Biases, where the package is installed
+    none = "none"
+
+
 class DType(enum.StrEnum):
     float32 = "float32"
     float64 = "float64"             # needs jax.enable_x64
@@ -153,7 +160,7 @@ class _Checked:
 def _enum_of(annotation):
     text = str(annotation)
     for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, FeatureGradient,
-                 DType):
+                 LoggerKind, DType):
         if kind.__name__ in text:
             return kind
     return None
@@ -389,13 +396,15 @@ class ExperimentConfig(_Checked):
 @dataclass(frozen=True)
 class OutputConfig(_Checked):
     """Attributes: progress bar on stderr; GIF of the final robot (seed 0); the loss plot, robot
-    drawing and latent/cluster pictures; simulation steps per animation frame."""
+    drawing and latent/cluster pictures; simulation steps per animation frame; the live logger
+    (`LoggerKind`: tensorboard, wandb or none)."""
 
     KEY = "output"
     progress: bool = True
     animation: bool = True
     pictures: bool = True
     animation_stride: int = 10
+    logger: LoggerKind = LoggerKind.tensorboard
 
     def check(self):
         self._positive_ints("animation_stride")

@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 
 from litl.loop import make_algorithm, seed_slice  # noqa: E402
 from litl.loop.progress import say  # noqa: E402
+from litl.loop.replay import newest  # noqa: E402
 from litl.models.kmeans import KMeansObserver  # noqa: E402
 from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402
@@ -99,12 +100,9 @@ def _representation(robot, algorithm, state, run_dir: pathlib.Path,
         return [run_dir / "clusters.png"]
     if not isinstance(algorithm.model, ConvAutoencoder):
         return []
-    count = int(state.buffer.count)
-    if count == 0:
+    snapshots = newest(state.buffer, SNAPSHOTS)
+    if len(snapshots) == 0:
         return []
-    # The newest snapshots sit just before the ring buffer's cursor.
-    newest = (int(state.buffer.cursor) - 1 - np.arange(min(count, SNAPSHOTS))[::-1]) % count
-    snapshots = np.asarray(state.buffer.fields)[newest]
     written = []
     for name, make in (
         ("snapshots.png", lambda path: draw_snapshots(algorithm.model, state.observer, snapshots, path)),

@@ -121,3 +121,13 @@ def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:
 def valid_fields(buffer: ReplayBuffer) -> jax.Array:
     """(count, *grid_shape, d) the stored snapshots in slot order; not jittable (dynamic shape)."""
     return buffer.fields[: int(buffer.count)]
+
+
+def newest(buffer: ReplayBuffer, k: int):
+    """(min(k, count), *grid_shape, d) numpy: one seed's k newest snapshots, oldest first (they
+    sit just before the ring buffer's cursor)."""
+    import numpy as np
+
+    count = int(buffer.count)
+    slots = (int(buffer.cursor) - 1 - np.arange(min(count, k))[::-1]) % max(count, 1)
+    return np.asarray(buffer.fields)[slots]

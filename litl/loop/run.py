@@ -39,10 +39,12 @@ import numpy as np
 import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, stack_seeds
+from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
+from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger
 from litl.config import Config, flatten
 from litl.loop.progress import Progress, say
+from litl.loop.replay import newest
 from litl.robots.robot import Robot
 
 
@@ -194,27 +196,34 @@ class RunDirectoryLock:
 
 def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes,
                 config_files):
+    check_kind(config.output.logger)
     _claim(run_dir, wanted, config_files)
-    shell = _Shell(run_dir, algorithm, [config.seed + s for s in range(config.seeds)])
-    state, counters = shell.start()
     loop = config.loop
-    episodes = loop.episodes if stop_after_episodes is None else min(
-        stop_after_episodes, loop.episodes)
-    bar = Progress(loop.episodes, loop.iterations, enabled=progress)
-    before = np.asarray(counters["loss_before_retrain"], np.float64)
-    for episode in range(int(counters["episodes_done"]), episodes):
-        state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
-        if algorithm.retrains:
-            before = np.asarray(shell.evaluate(state), np.float64)
-            with bar.learning(episode):
-                state = shell.learning_phase(state, episode)
-        else:
-            before = np.full(config.seeds, np.nan)
-        shell.checkpoints.save(episode + 1, state, {
-            "episodes_done": episode + 1, "metrics_lines": len(shell.records),
-            "learning_lines": len(shell.learning), "loss_before_retrain": before})
-    bar.close()
-    shell.checkpoints.close()
+    seeds = [config.seed + s for s in range(config.seeds)]
+    logger = make_logger(config.output.logger, run_dir, seeds, loop.iterations, wanted)
+    shell = _Shell(run_dir, algorithm, seeds, logger)
+    try:
+        state, counters = shell.start()
+        episodes = loop.episodes if stop_after_episodes is None else min(
+            stop_after_episodes, loop.episodes)
+        bar = Progress(loop.episodes, loop.iterations, enabled=progress)
+        before = np.asarray(counters["loss_before_retrain"], np.float64)
+        for episode in range(int(counters["episodes_done"]), episodes):
+            state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
+            if algorithm.retrains:
+                before = np.asarray(shell.evaluate(state), np.float64)
+                with bar.learning(episode):
+                    state = shell.learning_phase(state, episode)
+                shell.log_pictures(state, (episode + 1) * loop.iterations)
+            else:
+                before = np.full(config.seeds, np.nan)
+            shell.checkpoints.save(episode + 1, state, {
+                "episodes_done": episode + 1, "metrics_lines": len(shell.records),
+                "learning_lines": len(shell.learning), "loss_before_retrain": before})
+        bar.close()
+    finally:
+        shell.checkpoints.close()
+        logger.close()
     if episodes == loop.episodes:
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, shell.seeds)
@@ -252,8 +261,8 @@ class _Shell:
     """The impure side of one run: the seeds' batched (jit of vmap) functions, the metrics and
     learning files, the checkpoints."""
 
-    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int]):
-        self.algorithm, self.seeds = algorithm, seeds
+    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger):
+        self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
         batched = lambda f: jax.jit(jax.vmap(f))
         self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
         self.learn, self.evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
@@ -282,6 +291,8 @@ class _Shell:
                              if algorithm.observer.learned else [])
             counters["learning_lines"] = len(self.learning)
             self.checkpoints.save(0, state, counters)
+            self.log_pictures(state, 0)
+        self.logger.restore(self.records, self.learning)
         for path, lines in ((self.metrics_file, self.records),
                             (self.learning_file, self.learning)):
             with open(path, "w") as out:
@@ -304,6 +315,7 @@ class _Shell:
                 out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
                 self.records += new
+                self.logger.iteration(new)
                 finite = metrics["task_loss"][np.isfinite(metrics["task_loss"])]
                 bar.update(episode, iteration, float(finite.mean()) if finite.size else np.nan)
                 _warn_unhealthy(metrics, self.seeds, episode, iteration)
@@ -318,7 +330,27 @@ class _Shell:
         with open(self.learning_file, "a") as log:
             log.writelines(json.dumps(r) + "\n" for r in phase)
         self.learning += phase
+        self.logger.phase(phase)
         return state
+
+    def log_pictures(self, state, step: int) -> None:
+        """The first seed's newest snapshots, codes and reconstructions into the live log (a
+        learned autoencoder only; the same figure as snapshots.png)."""
+        from litl.models.vae import ConvAutoencoder
+
+        model = self.algorithm.model
+        if isinstance(self.logger, NoLogger) or not isinstance(model, ConvAutoencoder):
+            return
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from litl.viz.latent import draw_snapshots
+
+        first = seed_slice(jax.tree.map(np.asarray, state), 0)
+        snapshots = newest(first.buffer, 6)
+        if len(snapshots):
+            figure = draw_snapshots(model, first.observer, snapshots)
+            self.logger.figure(self.seeds[0], "observer/snapshots", figure, step)
 
 
 def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:

@@ -1,0 +1,191 @@
+"""Live run logs in the field's viewers: TensorBoard event files (default) or Weights & Biases.
+
+`metrics.jsonl` and `learning.jsonl` stay the source of truth; a logger mirrors them while the run
+goes. Per seed (a TensorBoard run `tensorboard/seed<N>` each):
+
+* every optimization iteration (step = global iteration): ``task/loss`` and the task's terms
+  ``task/<term>``, ``design/mean|min|max``, ``gradients/controller_norm|design_norm``, and
+  ``observer/simultaneous_recon_loss`` in the simultaneous ablation;
+* every learning phase (step = the iteration it precedes): ``learning/recon_loss_train|val``,
+  ``learning/recon_explained``, ``learning/active_units``, ``learning/kl``,
+  ``learning/velocity_r2_<axis>``, ``learning/epochs_used``, ``learning/wall_s``; and the
+  validation reconstruction loss after every epoch, ``learning/val_recon_by_sgd_step`` (step =
+  SGD steps since the run began: the paper's Fig. 5);
+* at every episode boundary of a learned observer: ``observer/snapshots`` (seed 0's newest
+  snapshots, latent codes and reconstructions, as `snapshots.png`).
+
+A resumed run rewrites the event files from the records restored with it, so the logs always
+match `metrics.jsonl` (images of episodes before the resume are not redrawn).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+import shutil
+
+import numpy as np
+
+KINDS = ("tensorboard", "wandb", "none")
+ITERATION_TAGS = {"task_loss": "task/loss", "design_mean": "design/mean",
+                  "design_min": "design/min", "design_max": "design/max",
+                  "controller_grad_norm": "gradients/controller_norm",
+                  "design_grad_norm": "gradients/design_norm",
+                  "simultaneous_recon_loss": "observer/simultaneous_recon_loss"}
+PHASE_KEYS = ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units", "kl",
+              "epochs_used", "wall_s")
+AXES = "xyz"
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def iteration_scalars(record: dict) -> dict:
+    """{tag: value} of one metrics.jsonl record (finite numbers only)."""
+    scalars = {tag: record.get(key) for key, tag in ITERATION_TAGS.items()}
+    scalars.update({key: value for key, value in record.items() if key.startswith("task/")})
+    return {tag: float(value) for tag, value in scalars.items() if _number(value)}
+
+
+def phase_scalars(record: dict) -> dict:
+    """{tag: value} of one learning.jsonl record's statistics (finite numbers only)."""
+    scalars = {f"learning/{key}": record.get(key) for key in PHASE_KEYS}
+    for axis, value in zip(AXES, record.get("velocity_r2") or ()):
+        scalars[f"learning/velocity_r2_{axis}"] = value
+    return {tag: float(value) for tag, value in scalars.items() if _number(value)}
+
+
+class RunLogger:
+    """Mirrors a run's records into a viewer; `make_logger` picks the kind. The run shell calls
+    `iteration` with each iteration's records (all seeds), `phase` with a learning phase's,
+    `figure` at episode boundaries, and `close` at the end."""
+
+    def __init__(self, iterations: int):
+        self.iterations = iterations          # optimization iterations per episode
+        self.sgd_steps: dict[int, int] = {}   # per seed, SGD steps of the phases so far
+
+    def iteration(self, records: list[dict]) -> None:
+        for record in records:
+            self.scalars(record["seed"], iteration_scalars(record), record["step"])
+
+    def phase(self, records: list[dict]) -> None:
+        for record in records:
+            seed, phase = record["seed"], record["phase"]
+            step = phase * self.iterations
+            self.scalars(seed, phase_scalars(record), step)
+            done = self.sgd_steps.get(seed, 0)
+            per_epoch = record.get("steps_per_epoch") or 0
+            for epoch, loss in enumerate(record.get("val_recon_history") or (), start=1):
+                if _number(loss):
+                    self.scalars(seed, {"learning/val_recon_by_sgd_step": float(loss)},
+                                 done + epoch * per_epoch)
+            self.sgd_steps[seed] = done + int(record.get("sgd_steps") or 0)
+
+    def restore(self, metrics: list[dict], learning: list[dict]) -> None:
+        """Write the records a resumed run starts from."""
+        for record in learning:
+            self.phase([record])
+        self.iteration(metrics)
+
+    def scalars(self, seed: int, values: dict, step: int) -> None:
+        raise NotImplementedError
+
+    def figure(self, seed: int, tag: str, figure, step: int) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        pass
+
+
+class NoLogger(RunLogger):
+    def scalars(self, seed, values, step):
+        pass
+
+    def figure(self, seed, tag, figure, step):
+        pass
+
+
+def _pixels(figure) -> np.ndarray:
+    """(H, W, 3) uint8 of a matplotlib figure (Agg canvas)."""
+    figure.canvas.draw()
+    return np.asarray(figure.canvas.buffer_rgba())[..., :3].copy()
+
+
+class TensorBoardLogger(RunLogger):
+    """Event files under `run_dir/tensorboard/seed<N>/` (tensorboardX)."""
+
+    def __init__(self, run_dir: pathlib.Path, seeds: list[int], iterations: int):
+        from tensorboardX import SummaryWriter
+
+        super().__init__(iterations)
+        root = pathlib.Path(run_dir) / "tensorboard"
+        shutil.rmtree(root, ignore_errors=True)   # rewritten from the records (see the module)
+        self.writers = {seed: SummaryWriter(str(root / f"seed{seed}"), flush_secs=5)
+                        for seed in seeds}
+
+    def scalars(self, seed, values, step):
+        writer = self.writers[seed]
+        for tag, value in values.items():
+            writer.add_scalar(tag, value, step)
+
+    def figure(self, seed, tag, figure, step):
+        self.writers[seed].add_image(tag, _pixels(figure), step, dataformats="HWC")
+
+    def close(self):
+        for writer in self.writers.values():
+            writer.close()
+
+
+class WandbLogger(RunLogger):
+    """One Weights & Biases run per litl run (tags prefixed ``seed<N>/``); resumes with it."""
+
+    def __init__(self, run_dir: pathlib.Path, seeds: list[int], iterations: int, settings: dict):
+        import hashlib
+
+        import wandb
+
+        super().__init__(iterations)
+        self.wandb = wandb
+        run_id = hashlib.sha1(str(pathlib.Path(run_dir).resolve()).encode()).hexdigest()[:16]
+        self.run = wandb.init(project="litl", dir=str(run_dir), id=run_id, resume="allow",
+                              name=pathlib.Path(run_dir).name,
+                              config=json.loads(json.dumps(settings)))
+
+    def scalars(self, seed, values, step):
+        self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
+                     {"litl_step": step})
+
+    def figure(self, seed, tag, figure, step):
+        self.run.log({f"seed{seed}/{tag}": self.wandb.Image(_pixels(figure)), "litl_step": step})
+
+    def close(self):
+        self.run.finish()
+
+
+def check_kind(kind: str) -> None:
+    """Raise a clear error for a logger that cannot be used (before the run starts)."""
+    from litl.config import SettingsError
+
+    if kind not in KINDS:
+        raise SettingsError(f"output.logger={kind!r}: choose one of {list(KINDS)}",
+                            "output.logger")
+    if kind == "wandb":
+        try:
+            import wandb  # noqa: F401
+        except ImportError:
+            raise SettingsError("logger=wandb needs the Weights & Biases package: pip install "
+                                "wandb (then `wandb login`, or WANDB_MODE=offline); or use "
+                                "logger=tensorboard", "output.logger") from None
+
+
+def make_logger(kind: str, run_dir, seeds: list[int], iterations: int,
+                settings: dict | None = None) -> RunLogger:
+    """The run's logger: ``"tensorboard"``, ``"wandb"`` or ``"none"``."""
+    check_kind(kind)
+    if kind == "tensorboard":
+        return TensorBoardLogger(run_dir, seeds, iterations)
+    if kind == "wandb":
+        return WandbLogger(run_dir, seeds, iterations, settings or {})
+    return NoLogger(iterations)
