@@ -4,7 +4,7 @@
 the same form can be passed to `make_step` / `make_rollout` (``stress=``). (A robot's `Material`
 is something else: the parameter values, E, nu, density, actuator strength.)
 
-Matrices are per-component lists (see `litl.sim.linalg`): F[i][j] is an (n,) array; mu, lam (n,).
+Matrices are per-component lists (see `litl.sim.linalg`): `F[i][j]` is an (n,) array; mu, lam (n,).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def actuation_stress(F, activation, fiber):
     """Active stress F A F^T with A = a (d ⊗ d), along each particle's fiber direction.
 
     Args:
-      F: deformation gradients, F[i][j] of shape (n,).
+      F: deformation gradients, `F[i][j]` of shape (n,).
       activation: (n,) signed active stress magnitude a of each particle (0 for passive ones).
       fiber: d arrays (n,), unit fiber direction of each particle in the material frame.
     """

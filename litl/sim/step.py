@@ -56,7 +56,7 @@ def _grid_update(config: SimConfig, grid, particle_mass):
 
 @struct.dataclass
 class Components:
-    """A `SimState` held as per-component (n,) arrays: x[a], v[a], C[i][j], F[i][j].
+    """A `SimState` held as per-component (n,) arrays: `x[a]`, `v[a]`, `C[i][j]`, `F[i][j]`.
 
     Rollouts carry this form from step to step, so no step ever packs or unpacks (n, d) arrays:
     on CPU, XLA fuses the producers of such a pack into one scalar loop, which made the backward
