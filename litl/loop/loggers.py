@@ -12,7 +12,8 @@ goes. Per seed (a TensorBoard run `tensorboard/seed<N>` each):
   validation reconstruction loss after every epoch, ``learning/val_recon_by_sgd_step`` (step =
   SGD steps since the run began: the paper's Fig. 5);
 * at every episode boundary of a learned observer: ``observer/snapshots`` (seed 0's newest
-  snapshots, latent codes and reconstructions, as `snapshots.png`).
+  snapshots, top, and their reconstructions, bottom, as speed |v| on one colour scale; the full
+  picture with latent codes is `snapshots.png` at the end).
 
 A resumed run rewrites the event files from the records restored with it, so the logs always
 match `metrics.jsonl` (images of episodes before the resume are not redrawn).
@@ -60,7 +61,7 @@ def phase_scalars(record: dict) -> dict:
 class RunLogger:
     """Mirrors a run's records into a viewer; `make_logger` picks the kind. The run shell calls
     `iteration` with each iteration's records (all seeds), `phase` with a learning phase's,
-    `figure` at episode boundaries, and `close` at the end."""
+    `image` at episode boundaries, and `close` at the end."""
 
     def __init__(self, iterations: int):
         self.iterations = iterations          # optimization iterations per episode
@@ -92,7 +93,8 @@ class RunLogger:
     def scalars(self, seed: int, values: dict, step: int) -> None:
         raise NotImplementedError
 
-    def figure(self, seed: int, tag: str, figure, step: int) -> None:
+    def image(self, seed: int, tag: str, pixels: np.ndarray, step: int) -> None:
+        """Log an (H, W, 3) uint8 image."""
         raise NotImplementedError
 
     def close(self) -> None:
@@ -103,14 +105,36 @@ class NoLogger(RunLogger):
     def scalars(self, seed, values, step):
         pass
 
-    def figure(self, seed, tag, figure, step):
+    def image(self, seed, tag, pixels, step):
         pass
 
 
-def _pixels(figure) -> np.ndarray:
-    """(H, W, 3) uint8 of a matplotlib figure (Agg canvas)."""
-    figure.canvas.draw()
-    return np.asarray(figure.canvas.buffer_rgba())[..., :3].copy()
+def snapshot_strip(snapshots: np.ndarray, reconstructions: np.ndarray, zoom: int = 4,
+                   percentile: float = 98.0) -> np.ndarray:
+    """(H, W, 3) uint8: the snapshots' speed |v| in the top row, their reconstructions' below,
+    x to the right and up upwards, on one colour scale (``magma`` up to the `percentile` of the
+    inputs' nonzero speeds); a 3D field shows its mid-depth slice. Cheap enough for every
+    episode (no figure layout)."""
+    import matplotlib
+
+    def speed(field):
+        field = np.asarray(field, np.float64)
+        if field.ndim == 4:
+            field = field[:, :, field.shape[2] // 2]
+        return np.linalg.norm(field, axis=-1).T[::-1]          # rows: y from the top
+
+    top = [speed(f) for f in snapshots]
+    bottom = [speed(f) for f in reconstructions]
+    values = np.concatenate([t.ravel() for t in top])
+    values = values[values > 0]
+    limit = float(np.percentile(values, percentile)) if values.size else 1.0
+    gap = np.full((top[0].shape[0], 1), np.nan)
+    rows = [np.hstack([x for panel in row for x in (panel, gap)][:-1]) for row in (top, bottom)]
+    grid = np.vstack([rows[0], np.full((1, rows[0].shape[1]), np.nan), rows[1]])
+    colors = matplotlib.colormaps["magma"](np.clip(grid / (limit or 1.0), 0, 1))[..., :3]
+    colors[np.isnan(grid)] = 1.0
+    pixels = (colors * 255).astype(np.uint8)
+    return np.repeat(np.repeat(pixels, zoom, axis=0), zoom, axis=1)
 
 
 class TensorBoardLogger(RunLogger):
@@ -130,8 +154,8 @@ class TensorBoardLogger(RunLogger):
         for tag, value in values.items():
             writer.add_scalar(tag, value, step)
 
-    def figure(self, seed, tag, figure, step):
-        self.writers[seed].add_image(tag, _pixels(figure), step, dataformats="HWC")
+    def image(self, seed, tag, pixels, step):
+        self.writers[seed].add_image(tag, pixels, step, dataformats="HWC")
 
     def close(self):
         for writer in self.writers.values():
@@ -157,8 +181,8 @@ class WandbLogger(RunLogger):
         self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
                      {"litl_step": step})
 
-    def figure(self, seed, tag, figure, step):
-        self.run.log({f"seed{seed}/{tag}": self.wandb.Image(_pixels(figure)), "litl_step": step})
+    def image(self, seed, tag, pixels, step):
+        self.run.log({f"seed{seed}/{tag}": self.wandb.Image(pixels), "litl_step": step})
 
     def close(self):
         self.run.finish()

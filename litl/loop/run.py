@@ -41,7 +41,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
-from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger
+from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
 from litl.config import Config, flatten
 from litl.loop.progress import Progress, say
 from litl.loop.replay import newest
@@ -263,6 +263,7 @@ class _Shell:
 
     def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
+        self.reconstruct = None
         batched = lambda f: jax.jit(jax.vmap(f))
         self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
         self.learn, self.evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
@@ -334,23 +335,24 @@ class _Shell:
         return state
 
     def log_pictures(self, state, step: int) -> None:
-        """The first seed's newest snapshots, codes and reconstructions into the live log (a
-        learned autoencoder only; the same figure as snapshots.png)."""
+        """The first seed's newest snapshots and their reconstructions into the live log (a
+        learned autoencoder only)."""
         from litl.models.vae import ConvAutoencoder
 
         model = self.algorithm.model
         if isinstance(self.logger, NoLogger) or not isinstance(model, ConvAutoencoder):
             return
-        import matplotlib
+        if self.reconstruct is None:       # compiled once per run
+            def reconstruct(params, fields):
+                code = model.apply(params.network, fields / params.scale, method="encode")[0]
+                return model.apply(params.network, code, method="decode") * params.scale
 
-        matplotlib.use("Agg")
-        from litl.viz.latent import draw_snapshots
-
+            self.reconstruct = jax.jit(reconstruct)
         first = seed_slice(jax.tree.map(np.asarray, state), 0)
         snapshots = newest(first.buffer, 6)
         if len(snapshots):
-            figure = draw_snapshots(model, first.observer, snapshots)
-            self.logger.figure(self.seeds[0], "observer/snapshots", figure, step)
+            pixels = snapshot_strip(snapshots, self.reconstruct(first.observer, snapshots))
+            self.logger.image(self.seeds[0], "observer/snapshots", pixels, step)
 
 
 def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:
