@@ -373,7 +373,7 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
             ax.scatter(*center, s=80, color="black", marker="x", linewidths=2, zorder=4,
                        gid="reach_group")
     if colorbar:
-        _add_colorbar(ax, actuation, stiffness, stiffness_range, shrink=0.6)
+        _add_colorbar(ax, actuation, stiffness, stiffness_range, shrink=0.6, pad=0.12)
     ax.set_xlabel("x")
     ax.set_ylabel("depth")
     ax.set_zlabel("up")
