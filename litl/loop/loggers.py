@@ -176,6 +176,10 @@ class WandbLogger(RunLogger):
         self.run = wandb.init(project="litl", dir=str(run_dir), id=run_id, resume="allow",
                               name=pathlib.Path(run_dir).name,
                               config=json.loads(json.dumps(settings)))
+        # Charts against litl's step (global iteration, or SGD steps for the per-epoch curve),
+        # not wandb's count of log calls.
+        self.run.define_metric("litl_step")
+        self.run.define_metric("*", step_metric="litl_step")
 
     def scalars(self, seed, values, step):
         self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
