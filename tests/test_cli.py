@@ -38,7 +38,8 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     done = litl_command(["+scale=smoke", "seeds=2"], tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     (run_dir,) = run_dirs(tmp_path / "outputs")
-    assert run_dir.relative_to(tmp_path).parts[:3] == ("outputs", "demo", "biped")
+    # outputs/<experiment>/<robot>/<observer>/<time>
+    assert run_dir.relative_to(tmp_path).parts[:4] == ("outputs", "demo", "biped", "vae")
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert len(records) == 2 * 2 * 2 and {r["seed"] for r in records} == {0, 1}
     for name in ("task_loss.png", "recon_loss.png", "recon_sgd.png", "learning.jsonl", "robot.png",
@@ -48,6 +49,8 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()
     assert "- seeds=2" in (run_dir / ".hydra" / "overrides.yaml").read_text()
     assert "final task loss per seed" in done.stderr
+    # The picture-making at the end says what it draws (output.progress is on by default).
+    assert "pictures: the report" in done.stderr and "pictures: robot.gif" in done.stderr
     # Quiet logs: no TPU probe, no matplotlib INFO chatter.
     assert "Unable to initialize backend" not in done.stderr
     assert "[matplotlib" not in done.stderr and "INFO" not in done.stderr
@@ -183,6 +186,13 @@ def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
     assert len(dirs) == 2
     seeds = {json.loads((d / "metrics.jsonl").read_text().splitlines()[0])["seed"] for d in dirs}
     assert seeds == {0, 1}
+    if launcher == "basic":
+        # Every job of a sweep labels litl's lines with its number (`set_label`); the basic
+        # launcher runs the jobs in this process, so their lines reach its stderr.
+        ours = [line for line in done.stderr.splitlines() if "litl: " in line]
+        assert ours and all(re.match(r"\[job [01]\] litl: ", line) for line in ours), ours
+        for job in (0, 1):
+            assert f"[job {job}] litl: final task loss per seed" in done.stderr
 
 
 def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():

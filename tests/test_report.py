@@ -14,6 +14,7 @@ from litl.report import (
     confidence_band, curves, group_runs, labels, load_runs, main, t_quantile, write_report,
 )
 from litl.report.runs import ABLATIONS, Run
+from litl.report.summary import format_number
 
 # A loop config as `run.json` stores it; tests override fields per run.
 LOOP = {"episodes": 3, "iterations": 4, "seeds": 3, "seed": 0, "steps": None, "observer": "vae",
@@ -198,12 +199,88 @@ def test_single_run_single_seed(tmp_path, capsys):
     assert str(run_dir / "summary.md") in out and "biped / vae" in out
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["best"]["biped"] == {"label": "vae", "compared": 1,
-                                        "overlaps_runner_up": False}
+                                        "overlaps_runner_up": False, "no_interval": []}
     final = summary["groups"][0]["final_task_loss"]
-    assert final["n"] == 1 and final["half_width"] == 0 and final["low"] == final["mean"]
+    assert final["n"] == 1 and final["mean"] is not None
+    assert final["low"] is final["high"] is final["half_width"] is None    # no interval
     notes = "\n".join(summary["notes"])
     assert "one seed only" in notes and "no confidence band" in notes
     assert "one seed, no CI" in (run_dir / "summary.md").read_text()
+
+
+def best_claims(text: str) -> list[str]:
+    """The lines of a summary (markdown or terminal) that name a best or lowest label."""
+    return [line for line in text.splitlines()
+            if ("lowest" in line or "best" in line.lower()) and not line.startswith(("#", "|"))]
+
+
+def test_one_seed_each_and_a_tiny_difference_is_not_called_a_win(tmp_path, capsys):
+    """Two one-seed runs whose final losses differ by 1e-6 (the same made-up noise): neither has
+    a confidence interval, so the report names the lower one only with that caveat."""
+    write_run(tmp_path / "0", seeds=(0,), observer="vae", final=1.0)
+    write_run(tmp_path / "1", seeds=(0,), observer="kmeans", final=1.0 + 1e-6)
+    assert main([str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    vae, kmeans = summary["groups"]
+    assert kmeans["final_task_loss"]["mean"] - vae["final_task_loss"]["mean"] == pytest.approx(
+        1e-6, rel=1e-3)
+    assert vae["final_task_loss"]["low"] is None and kmeans["final_task_loss"]["low"] is None
+    assert summary["best"]["biped"] == {"label": "vae", "compared": 2,
+                                        "overlaps_runner_up": False,
+                                        "no_interval": ["vae", "kmeans"]}
+    markdown = (tmp_path / "summary.md").read_text()
+    assert "does not overlap" not in markdown and "**vae**" not in markdown
+    for text in (markdown, printed):
+        claims = best_claims(text)
+        assert claims and all("one seed each: no confidence interval, the difference cannot be "
+                              "judged" in line for line in claims), claims
+    assert ("lowest final task loss for biped: vae (one seed each: no confidence interval, the "
+            "difference cannot be judged)") in printed
+
+
+def test_one_seed_against_several_cannot_be_judged_either(tmp_path, capsys):
+    write_run(tmp_path / "0", seeds=(0, 1, 2), observer="vae", final=0.5)
+    write_run(tmp_path / "1", seeds=(7,), observer="kmeans", final=1.5)
+    assert main([str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert ("lowest final task loss for biped: vae (kmeans has one seed with a final task loss: "
+            "no confidence interval, the difference cannot be judged)") in printed
+    markdown = (tmp_path / "summary.md").read_text()
+    assert "of 2 labels; kmeans has one seed with a final task loss: no confidence" in markdown
+
+
+def test_overlapping_intervals_of_three_seeds_carry_the_caveat(tmp_path, capsys):
+    """Three seeds each with the same noise, means 1e-3 apart: the 90% intervals overlap."""
+    write_run(tmp_path / "0", observer="vae", final=1.0)
+    write_run(tmp_path / "1", observer="kmeans", final=1.0 + 1e-3)
+    assert main([str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["best"]["biped"] == {"label": "vae", "compared": 2,
+                                        "overlaps_runner_up": True, "no_interval": []}
+    assert ("lowest final task loss for biped: vae (its 90% interval overlaps the runner-up's: "
+            "the difference is not clear at this level)") in printed
+    (claim,) = best_claims((tmp_path / "summary.md").read_text())
+    assert "overlaps the runner-up's, so the difference is not clear at this level" in claim
+
+
+def test_clearly_separated_intervals_are_called_so(tmp_path, capsys):
+    write_run(tmp_path / "0", observer="vae", final=0.5)
+    write_run(tmp_path / "1", observer="kmeans", final=1.5)
+    assert main([str(tmp_path)]) == 0
+    assert ("lowest final task loss for biped: vae (its 90% interval does not overlap the "
+            "runner-up's)") in capsys.readouterr().out
+    assert "does not overlap the runner-up's" in (tmp_path / "summary.md").read_text()
+
+
+def test_numbers_never_print_as_negative_zero():
+    assert format_number(-0.0) == "0" and format_number(0.0) == "0"
+    assert format_number(-0.0, ".3e") == "0.000e+00"
+    assert format_number(-1e-7, ".3f") == "0.000"          # rounded away: no sign left
+    assert format_number(-1e-7) == "-1e-07"                # significant digits keep it
+    assert format_number(-0.25) == "-0.25"
+    assert format_number(None) == format_number(math.nan) == "—"
 
 
 def test_unhealthy_seed_is_reported_and_left_out_of_the_mean(tmp_path):

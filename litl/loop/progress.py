@@ -14,6 +14,9 @@ import sys
 import threading
 import time
 
+# One number format for the status line and the report: significant digits, never "-0".
+from litl.report.summary import format_number
+
 _LABEL = ""
 
 
@@ -54,7 +57,7 @@ class Progress:
         filled = int(width * done / total)
         elapsed = time.perf_counter() - self.start
         line = (f"[{'#' * filled}{'.' * (width - filled)}] episode {episode + 1}/{self.episodes} "
-                f"iteration {iteration + 1}/{self.iterations} loss {loss:+.5f} "
+                f"iteration {iteration + 1}/{self.iterations} loss {format_number(loss)} "
                 f"({elapsed:.0f} s)")
         if self.interactive:
             self._write(line, newline=False)
@@ -81,7 +84,7 @@ class Progress:
 
         def line():
             return (f"episode {episode + 1}/{self.episodes} learning phase: epoch "
-                    f"{latest['epoch']}, validation loss {latest['validation']:.4g} "
+                    f"{latest['epoch']}, validation loss {format_number(latest['validation'])} "
                     f"({time.perf_counter() - start:.1f} s; run {time.perf_counter() - self.start:.0f} s)")
 
         def tick():

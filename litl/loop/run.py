@@ -134,6 +134,9 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
       health steps, skipped (null, or why the iteration changed nothing: one of
       `SKIP_REASONS`' values), consecutive_skips and wall_s.
     """
+    # A logger that cannot be used fails before anything is built or any directory is made, so
+    # the mistake leaves no empty run directory (nor a lock file) behind.
+    check_kind(config.output.logger)
     run_dir = pathlib.Path(run_dir)
     algorithm = make_algorithm(robot, config)
     wanted = settings(robot, config, algorithm)
@@ -196,7 +199,6 @@ class RunDirectoryLock:
 
 def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes,
                 config_files):
-    check_kind(config.output.logger)
     _claim(run_dir, wanted, config_files)
     loop = config.loop
     seeds = [config.seed + s for s in range(config.seeds)]

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from litl.report.runs import ReportError
-from litl.report.summary import format_number, write_report
+from litl.report.summary import format_number, unjudged_reason, write_report
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -37,13 +37,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'robot / label':<{width}}  seeds  final task loss (mean ± {args.level:.0%} CI)")
     for g in groups:
         final = g["final_task_loss"]
-        half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else ""
+        half = (f" ± {format_number(final['half_width'])}" if final["half_width"] is not None
+                else " (one seed, no CI)")
         print(f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  "
               f"{format_number(final['mean'])}{half}")
     for robot, best in report.summary["best"].items():
         if best["compared"] > 1:
-            caveat = (f" (its {args.level:.0%} interval overlaps the runner-up's: the difference is "
-                      f"not clear at this level)" if best.get("overlaps_runner_up") else "")
+            unjudged = unjudged_reason(best)
+            if unjudged:
+                caveat = f" ({unjudged})"
+            elif best["overlaps_runner_up"]:
+                caveat = (f" (its {args.level:.0%} interval overlaps the runner-up's: the "
+                          f"difference is not clear at this level)")
+            else:
+                caveat = f" (its {args.level:.0%} interval does not overlap the runner-up's)"
             print(f"lowest final task loss for {robot}: {best['label']}{caveat}")
     sys.stdout.flush()
     return 0

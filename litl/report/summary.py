@@ -42,9 +42,44 @@ def _number(value):
     return value if math.isfinite(value) else None
 
 
+def _interval(mean, low, high, n: int) -> dict:
+    """A mean with its confidence interval; with fewer than two values there is no interval
+    (low, high and half_width are None), however close `confidence_band` collapsed it."""
+    if n < 2:
+        return {"mean": _number(mean), "low": None, "high": None, "half_width": None}
+    return {"mean": _number(mean), "low": _number(low), "high": _number(high),
+            "half_width": _number(high - mean)}
+
+
 def format_number(value, spec: str = ".4g") -> str:
-    # + 0.0 turns -0.0 into 0.0: a loss that rounds to zero prints "0", never "-0".
-    return "—" if value is None or not math.isfinite(value) else format(value + 0.0, spec)
+    """`value` with significant digits (`spec`), "—" if it is None or not finite, never "-0".
+
+    Args:
+      value: a number or None.
+      spec: a numeric format specification, e.g. ``".4g"`` or ``".3e"``.
+    """
+    if value is None or not math.isfinite(value):
+        return "—"
+    text = format(value, spec)
+    # -0.0, or a tiny negative rounded away (-1e-7 as ".3f"), would print as a negative zero.
+    if text.startswith("-") and not any(c in "123456789" for c in text[1:].lower().split("e")[0]):
+        text = text[1:]
+    return text
+
+
+def unjudged_reason(best: dict) -> str | None:
+    """Why the best label of `summary["best"]` cannot be told from the runner-up, or None.
+
+    A label whose final task loss comes from a single seed has no confidence interval, so however
+    small the difference in means (1e-6 between two one-seed runs), nothing says it is real.
+    """
+    lacking = best.get("no_interval") or []
+    if best["compared"] < 2 or not lacking:
+        return None
+    if len(lacking) == 2:
+        return "one seed each: no confidence interval, the difference cannot be judged"
+    return (f"{lacking[0]} has one seed with a final task loss: no confidence interval, the "
+            f"difference cannot be judged")
 
 
 def _relative(path: pathlib.Path, source: pathlib.Path) -> str:
@@ -83,7 +118,14 @@ def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[
 
 def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
               level: float) -> dict:
-    """The numbers of a report, as stored in `summary.json` (figures are added by the caller)."""
+    """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
+
+    Each group's final task loss has its mean and Student-t interval at `level` (low, high,
+    half_width: None with fewer than two seeds). `best` names, per robot, the label with the
+    lowest mean final task loss: `compared` (labels with a final task loss),
+    `overlaps_runner_up` (its interval overlaps the runner-up's) and `no_interval` (which of
+    the two have no interval; then the difference cannot be judged, see `unjudged_reason`).
+    """
     notes = []
     entries = []
     for group in groups:
@@ -99,12 +141,9 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
             "observer": group.runs[0].observer, "seeds": group.n_seeds,
             "runs": [_relative(run.path, source) for run in group.runs],
             "iterations": int(steps[-1]) + 1 if len(steps) else 0,
-            "final_task_loss": {"mean": _number(mean), "low": _number(low),
-                                "high": _number(high), "half_width": _number(high - mean),
-                                "n": n},
+            "final_task_loss": {**_interval(mean, low, high, n), "n": n},
             f"last{FINAL_WINDOW}_task_loss": {
-                "mean": _number(window_mean), "low": _number(window_low),
-                "high": _number(window_high), "half_width": _number(window_high - window_mean),
+                **_interval(window_mean, window_low, window_high, finite_window.size),
                 "per_seed": [_number(v) for v in window],
                 "best": _number(finite_window.min()) if finite_window.size else None,
                 "worst": _number(finite_window.max()) if finite_window.size else None}})
@@ -119,10 +158,14 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
                         key=lambda e: e["final_task_loss"]["mean"])
         if not ranked:
             continue
-        first = ranked[0]["final_task_loss"]
-        overlaps = len(ranked) > 1 and ranked[1]["final_task_loss"]["low"] <= first["high"]
+        # Only the best and the runner-up are compared; a label without an interval (one seed)
+        # makes the comparison impossible to judge, not a win.
+        no_interval = [e["label"] for e in ranked[:2] if e["final_task_loss"]["low"] is None]
+        overlaps = (len(ranked) > 1 and not no_interval and
+                    ranked[1]["final_task_loss"]["low"] <= ranked[0]["final_task_loss"]["high"])
         best[robot] = {"label": ranked[0]["label"], "compared": len(ranked),
-                       "overlaps_runner_up": bool(overlaps)}
+                       "overlaps_runner_up": bool(overlaps),
+                       "no_interval": no_interval if len(ranked) > 1 else []}
     return {
         "source": str(source), "level": level,
         "runs": [{"path": _relative(run.path, source), "robot": run.robot, "label": label,
@@ -188,14 +231,19 @@ def summary_markdown(summary: dict) -> str:
               "per seed |", "|---|---|---|---|---|---|"]
     for e in summary["groups"]:
         window = e[f"last{FINAL_WINDOW}_task_loss"]
-        half = f" ± {format_number(window['half_width'])}" if e["final_task_loss"]["n"] > 1 else ""
+        half = ("" if window["half_width"] is None
+                else f" ± {format_number(window['half_width'])}")
         lines.append(f"| {e['robot']} | {e['label']} | {format_number(window['mean'])}{half} | "
                      f"{format_number(window['best'])} | {format_number(window['worst'])} | "
-                     f"{', '.join(format_number(v, '.3f') for v in window['per_seed'])} |")
+                     f"{', '.join(format_number(v) for v in window['per_seed'])} |")
     lines += ["", "## Best label", ""]
     for robot, best in summary["best"].items():
+        unjudged = unjudged_reason(best)
         if best["compared"] < 2:
             lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
+        elif unjudged:
+            lines.append(f"- {robot}: {best['label']} has the lowest mean final task loss of "
+                         f"{best['compared']} labels; {unjudged}.")
         else:
             caveat = (" — but its confidence interval overlaps the runner-up's, so the "
                       "difference is not clear at this level" if best["overlaps_runner_up"]

@@ -101,6 +101,16 @@ def test_a_run_directory_refuses_other_settings(vae_run):
     assert (vae_run.run_dir / "metrics.jsonl").read_text() == before
 
 
+def test_an_unusable_logger_fails_before_any_directory_is_made(tmp_path, monkeypatch):
+    from litl.config import SettingsError
+
+    monkeypatch.setitem(sys.modules, "wandb", None)     # `import wandb` fails, installed or not
+    run_dir = tmp_path / "outputs" / "demo" / "biped"
+    with pytest.raises(SettingsError, match="logger=wandb needs the Weights & Biases package"):
+        run(tiny_robot(), tiny_config(output={"logger": "wandb"}), run_dir, progress=False)
+    assert not (tmp_path / "outputs").exists()
+
+
 def test_kmeans_baseline_runs_without_learning(tmp_path):
     result = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}), tmp_path, progress=False)
     assert len(result.metrics) == 2 * 2 * 2
