@@ -89,6 +89,9 @@ class DType(enum.StrEnum):
     float64 = "float64"             # needs jax.enable_x64
 
 
+# The closed-loop controller's clock: the sinusoid baseline's 30 rad/s (about 5 strides a second).
+CLOCK_PERIOD = 2 * math.pi / 30.0
+
 RESOLUTIONS = {Resolution.paper: {2: None, 3: None}, Resolution.demo: {2: 1 / 64, 3: 1 / 32},
                Resolution.smoke: {2: 1 / 32, 3: 1 / 16}}
 
@@ -274,7 +277,12 @@ class ControllerConfig(_Checked):
         baseline `litl.models.open_loop.SinusoidController`; needs observer none).
       widths: hidden layers of the MLP.
       omega: angular frequency (rad/s) of the sinusoid controller.
-      period: if set, the MLP also sees (sin, cos) of a clock of this period (s).
+      period: the MLP also sees (sin, cos) of a clock of this period (s), as DiffTaichi's
+        closed-loop walkers see sine waves beside the state; None: features only (the paper's
+        controller as described). The default, 2π/30 s, is the sinusoid baseline's frequency.
+        Measured on `experiment=biped_compare` (5 seeds, mean of each seed's last 10
+        iterations): the clock lifts the VAE arm from 0.200 to 0.307 and k-means from 0.224 to
+        0.361 (README, "The biped comparison").
       learning_rate: Adam step size of θ.
       feature_gradient: stop treats the observer's features as constants in the task-loss
         gradient (it reaches θ through the actuation's effect on the motion only); full also
@@ -286,7 +294,7 @@ class ControllerConfig(_Checked):
     kind: ControllerKind = ControllerKind.mlp
     widths: Tuple[int, ...] = (64, 64)
     omega: float = 30.0
-    period: Optional[float] = None
+    period: Optional[float] = CLOCK_PERIOD
     learning_rate: float = 0.01
     feature_gradient: FeatureGradient = FeatureGradient.stop
 

@@ -137,6 +137,28 @@ def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
         tiny_config(controller={"kind": "sinusoid"})
 
 
+def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
+    """By default the MLP sees (sin, cos) of a clock at the sinusoid baseline's frequency beside
+    the features; controller.period=None gives the features-only controller."""
+    import jax.numpy as jnp
+
+    from litl.config import CLOCK_PERIOD
+    from litl.loop.algorithm import make_algorithm
+
+    assert tiny_config().controller.period == pytest.approx(2 * np.pi / 30)
+    times = jnp.linspace(0.0, CLOCK_PERIOD, 5)
+    for period, clocked in ((CLOCK_PERIOD, True), (None, False)):
+        algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
+                                                             controller={"period": period}))
+        params = algorithm.init(0).controller
+        features = jnp.full((algorithm.n_features,), 0.3)       # a robot whose state holds still
+        actuation = np.stack([algorithm.controller.apply(params, features, time=t)
+                              for t in times])
+        assert (np.ptp(actuation, axis=0).max() > 1e-3) == clocked
+        # One period later the clock reads the same.
+        np.testing.assert_allclose(actuation[-1], actuation[0], atol=1e-5)
+
+
 def test_learned_observer_sees_a_window_that_follows_the_robot():
     """At dx 1/64 the VAE reads a 32 x 32 window around the centroid, and stores those windows."""
     import litl.robots
