@@ -20,6 +20,8 @@ window around the robot), all S seeds vmapped:
   learn_share        learn_s / episode_opt_s (the issue's target: <= 1)
   *_compile_s        lowering + compilation of each
   peak_rss_mb        peak resident memory of the process
+  peak_device_mb     on a GPU, the device allocator's peak (null where the device reports none)
+  device             platform, kind and count of the devices (the seeds run on the first one)
 """
 
 from __future__ import annotations
@@ -79,6 +81,8 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
     learn_s = statistics.median(phases)
     learn_steps = int((stats.epochs_used * stats.steps_per_epoch).max())
     episode_opt_s = config.loop.iterations * optimize_s
+    device = jax.devices()[0]
+    peak_device = (device.memory_stats() or {}).get("peak_bytes_in_use")   # None on CPU
     return {
         "seeds": seeds,
         "dx": dx,
@@ -96,7 +100,9 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
         "learn_compile_s": round(learn_compile, 1),
         "recon_explained": [round(float(v), 3) for v in stats.recon_explained],
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
-        "device": jax.devices()[0].platform,
+        "peak_device_mb": None if peak_device is None else round(peak_device / 2**20),
+        "device": {"platform": device.platform, "device_kind": device.device_kind,
+                   "device_count": jax.device_count()},
     }
 
 
@@ -129,6 +135,9 @@ def main(argv=None):
             if not args.json:
                 r = results[-1]
                 if len(results) == 1:
+                    device = r["device"]
+                    print(f"device: {device['device_kind']} ({device['platform']}, "
+                          f"{device['device_count']} device(s); the seeds run on the first)")
                     print(f"{'dx':>7s} {'seeds':>5s} {'optimize_s':>10s} {'episode_s':>9s} "
                           f"{'learn_s':>8s} {'steps':>5s} {'share':>5s} {'compile_s':>13s} "
                           f"{'peak_MB':>8s}")

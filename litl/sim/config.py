@@ -20,9 +20,11 @@ from typing import Literal
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
 ConstitutiveModel = Literal["fixed_corotated", "neo_hookean"]
+Buffering = Literal["auto", "none", "fields", "fields_and_nodes"]
 
 WALL_KINDS = ("sticky", "slip", "friction", "open")
 CONSTITUTIVE_MODELS = ("fixed_corotated", "neo_hookean")
+BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
 
 
 class ConfigError(ValueError):
@@ -116,6 +118,15 @@ class SimConfig:
         (`litl.sim.constitutive`).
       mass_epsilon: added to the grid mass before dividing momentum by it, in units of the mean
         particle mass (1e-10 as in DiffTaichi, whose particles have unit mass).
+      buffering: which values a rolled-out step computes into buffers before their many readers
+        read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
+        rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
+        ``"fields_and_nodes"``: also the stencil's node weights, the scattered grid and the
+        particle-side values of both transfers. ``"auto"``
+        (`litl.sim.step.resolve_buffering`): on XLA:CPU what was measured fastest there,
+        ``"fields_and_nodes"`` in 3D and ``"fields"`` in 2D; on any other backend ``"none"``, the
+        plain program (the reasons are in `litl.sim.step`; GPU speeds of the three settings are
+        not measured yet).
     """
 
     grid_shape: tuple[int, ...]
@@ -125,6 +136,7 @@ class SimConfig:
     boundary: Boundary | None = None
     constitutive_model: ConstitutiveModel = "fixed_corotated"
     mass_epsilon: float = 1e-10
+    buffering: Buffering = "auto"
 
     def __post_init__(self):
         object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
@@ -151,6 +163,8 @@ class SimConfig:
         if self.constitutive_model not in CONSTITUTIVE_MODELS:
             raise ConfigError(f"unknown constitutive_model {self.constitutive_model!r}; choose one "
                               f"of {CONSTITUTIVE_MODELS}")
+        if self.buffering not in BUFFERINGS:
+            raise ConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
         if self.boundary is None:
             object.__setattr__(self, "boundary", Boundary.box(dim))
         if len(self.boundary.walls) != 2 * dim:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+import jax
 import jax.numpy as jnp
 from flax import struct
 
@@ -83,21 +84,46 @@ class Components:
         )
 
 
+def resolve_buffering(config: SimConfig, backend: str | None = None) -> str:
+    """The buffering a step uses (`SimConfig.buffering`): "none", "fields" or "fields_and_nodes".
+
+    Args:
+      config: its `buffering`, unless that is "auto".
+      backend: the JAX platform the step will run on ("cpu", "gpu", "tpu"); None:
+        `jax.default_backend()`, where `jax.jit` places computations unless told otherwise.
+    """
+    if config.buffering != "auto":
+        return config.buffering
+    if (backend or jax.default_backend()) == "cpu":
+        # Measured on XLA:CPU: the fields pay off in 2D and 3D (walker forward+backward 1.1 s ->
+        # 0.77 s). Buffering the grid and the node weights too (and, in reverse mode, their
+        # cotangents) pays off in 3D (quadruped3d forward+backward 24 s -> 22.5 s for the
+        # weights, 41 s -> 30 s for the grid) but costs more than it saves in 2D (walker 0.72 s
+        # -> 0.78 s and 0.78 s -> 0.93 s).
+        return "fields_and_nodes" if config.dim == 3 else "fields"
+    # Elsewhere the default is the plain program: the recomputation a buffer prevents is XLA:CPU's
+    # (its fusion re-evaluates cheap producers per read), while the conditional that makes the
+    # buffer makes XLA:GPU copy its predicate to the host, a synchronization per value per step.
+    # Not measured on a GPU: force a setting with `SimConfig.buffering` to compare.
+    return "none"
+
+
 def make_component_step(config: SimConfig, body: Body, stress: StressFn | None = None):
     """Like `make_step`, on `Components`: ``step(components, actuation, design, token=None)``.
 
     `token`, a () int32 >= 0 that is not batched under vmap (a scan counter), lets the step
-    compute values read by many consumers into buffers (`linalg.materialize`): the walker's
-    forward+backward pass takes 0.77 s with it and 1.1 s without.
+    compute values read by many consumers into buffers (`linalg.materialize`), as
+    `resolve_buffering(config)` says, decided once here for the default backend.
     """
     stress_model = stress or CONSTITUTIVE_MODELS[config.constitutive_model]
     dx, dt, dim = config.dx, config.dt, config.dim
-    # Buffering the grid and the node weights (and, in reverse mode, their cotangents) pays off
-    # in 3D (quadruped3d forward+backward 24 s -> 22.5 s for the weights, 41 s -> 30 s for the
-    # grid) but costs more than it saves in 2D (walker 0.72 s -> 0.78 s and 0.78 s -> 0.93 s).
-    buffer_nodes = dim == 3
+    buffering = resolve_buffering(config)
+    buffer_fields = buffering != "none"
+    buffer_nodes = buffering == "fields_and_nodes"
 
     def step(state: Components, actuation, design: Design, token=None):
+        field_token = token if buffer_fields else None
+        node_token = token if buffer_nodes else None
         mass = design.density * body.volume
         mu, lam = design.lame()
         F = linalg.matmul(linalg.add(linalg.identity(dim, mass), linalg.scale(state.C, dt)), state.F)
@@ -108,12 +134,11 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).
         stress_scale = (-dt * 4.0 / dx**2) * body.volume
         affine = linalg.add(linalg.scale(tau, stress_scale), linalg.scale(state.C, mass))
-        if token is not None:
+        if field_token is not None:
             # Every stencil node's momentum reads all of A, and in reverse mode every component of
             # the stress derivative reads all of A's cotangent: computed once into buffers here
             # instead of once per reader (measured: quadruped3d forward+backward 30 s -> 24 s).
-            affine = linalg.materialize(affine, token)
-        node_token = token if buffer_nodes else None
+            affine = linalg.materialize(affine, field_token)
         st = transfer.stencil(state.x, dx, config.grid_shape, node_token)
         momentum = [mass * v for v in state.v]
         grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape,
@@ -124,8 +149,8 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
             grid = linalg.materialize(grid, node_token)
         velocity, grid_mass = _grid_update(config, grid, mass)
         velocity = linalg.stack(velocity, -1)
-        if token is not None:
-            velocity = linalg.materialize(velocity, token)
+        if field_token is not None:
+            velocity = linalg.materialize(velocity, field_token)
         v, C = transfer.grid_to_particles(st, velocity, dx, node_token)
         free = ~body.pinned
         v = [jnp.where(free, c, 0.0) for c in v]
