@@ -10,6 +10,7 @@ and returns one actuation value per actuator:
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable
 
 import jax
@@ -170,7 +171,9 @@ def make_rollout(
         segment_steps = unit * units_per_segment
         carry, (observed, snapshots) = jax.lax.scan(
             run_segment, carry, segment_steps * _counter(n_segments))
-        flatten = lambda a, per: a.reshape((-1,) + a.shape[per:])
+        # Merge the leading `per` axes (an explicit size: -1 is ambiguous for a passive body's
+        # (..., 0) actuation record).
+        flatten = lambda a, per: a.reshape((math.prod(a.shape[:per]),) + a.shape[per:])
         observations = [jax.tree.map(lambda o: flatten(o, 3), observed)]
         snapshots = [flatten(snapshots, 2)] if snapshot_stride else []
         done = n_segments * segment_steps

@@ -143,3 +143,15 @@ def test_checkpoint_every_must_fit_the_stride(scene):
     config, body, design, state = scene
     with pytest.raises(ValueError, match="multiple of snapshot_stride"):
         make_rollout(config, body, sine_policy, 20, snapshot_stride=3, checkpoint_every=4)
+
+
+@pytest.mark.parametrize("stride", [None, 5])
+def test_a_passive_body_rolls_out(stride):
+    """A body without actuators (a falling block, a passive obstacle) simulates; its actuation
+    record is (steps, 0)."""
+    config, body, design, state = block(n_actuators=0)
+    rollout = make_rollout(config, body, lambda params, state, grid: jnp.zeros((0,)), 12,
+                           snapshot_stride=stride)
+    final, trajectory = jax.jit(rollout)(None, design, state)
+    assert trajectory.actuation.shape == (12, 0)
+    assert np.all(np.isfinite(final.x)) and float(jnp.mean(final.x[:, 1] - state.x[:, 1])) < 0
