@@ -5,6 +5,12 @@ On a terminal the status line is redrawn in place; in a log (not a TTY) it print
 episode and one per learning phase. Hydra sweeps that run several jobs at once (the joblib
 launcher) interleave their output, so `python -m litl` sets a label per job (`set_label`) that
 starts every line.
+
+Why no progress library (tqdm, rich): the line is fed from two places, the Python loop over
+iterations and `jax.debug.callback`s fired from inside a jitted, vmapped learning phase (one
+value per seed), and in a log it must print one line per episode and per phase rather than every
+update or nothing; that is this module's ~100 lines, where a library would add a dependency and
+still need the same per-job labels and log-mode rules around it.
 """
 
 from __future__ import annotations
