@@ -7,7 +7,8 @@
 Writes robots.png (the eight robots), and from the demo run task_loss.png, robot.gif,
 saliency.gif, snapshots.png and latent_sweeps.png. With `--compare` (the multirun directory of
 `python -m litl -m experiment=biped_compare`) it also writes biped_compare.png, the report's
-task-loss bands of that sweep. Prints each file it wrote.
+task-loss bands of that sweep, and compare_<variant>.gif, seed 0 of each variant replayed
+(`python -m litl.replay JOB --seed 0`). Prints each file it wrote.
 """
 
 from __future__ import annotations
@@ -90,7 +91,24 @@ def main(argv=None) -> int:
                 parser.error(f"no task-loss curves could be drawn from {args.compare}")
             shutil.copyfile(curves[0], args.out / "biped_compare.png")
             print(args.out / "biped_compare.png")
+        for job in sorted(path.parent for path in args.compare.glob("*/final.json")):
+            out = args.out / f"compare_{variant_of(job)}.gif"
+            subprocess.run([sys.executable, "-m", "litl.replay", str(job), "--seed", "0",
+                            "--out", str(out)], check=True)
+            out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
+            out.with_suffix(".json").unlink(missing_ok=True)
+            print(out)
     return 0
+
+
+def variant_of(job: pathlib.Path) -> str:
+    """The `variant=` override a sweep job ran with (its job number if none)."""
+    overrides = job / ".hydra" / "overrides.yaml"
+    if overrides.is_file():
+        for line in overrides.read_text().splitlines():
+            if line.strip().lstrip("- ").startswith("variant="):
+                return line.split("=", 1)[1].strip()
+    return job.name
 
 
 if __name__ == "__main__":
