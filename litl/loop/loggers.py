@@ -181,12 +181,26 @@ class WandbLogger(RunLogger):
         self.run.define_metric("litl_step")
         self.run.define_metric("*", step_metric="litl_step")
 
+    silent = False
+
     def scalars(self, seed, values, step):
-        self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
-                     {"litl_step": step})
+        if not self.silent:
+            self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
+                         {"litl_step": step})
 
     def image(self, seed, tag, pixels, step):
         self.run.log({f"seed{seed}/{tag}": self.wandb.Image(pixels), "litl_step": step})
+
+    def restore(self, metrics, learning):
+        """A new W&B run gets the resumed run's history; a resumed W&B run already holds it, so
+        the records only advance the step bookkeeping (iterations logged after the last
+        checkpoint before an interruption are logged again, at the same litl_step, as the run
+        redoes them)."""
+        self.silent = bool(getattr(self.run, "resumed", False))
+        try:
+            super().restore(metrics, learning)
+        finally:
+            self.silent = False
 
     def close(self):
         self.run.finish()

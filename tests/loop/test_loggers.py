@@ -83,3 +83,49 @@ def test_loggers_that_cannot_be_used_are_refused_up_front(tmp_path):
             run(tiny_robot(), tiny_config(output={"logger": "wandb"}), tmp_path / "w",
                 progress=False)
         assert not (tmp_path / "w" / "run.json").exists()
+
+
+class _FakeWandbRun:
+    def __init__(self, resumed):
+        self.resumed, self.logged, self.metrics, self.finished = resumed, [], [], False
+
+    def define_metric(self, name, **options):
+        self.metrics.append((name, options))
+
+    def log(self, values):
+        self.logged.append(values)
+
+    def finish(self):
+        self.finished = True
+
+
+@pytest.mark.parametrize("resumed", [False, True])
+def test_wandb_logs_per_seed_against_litl_steps_and_restores_only_a_new_run(
+        tmp_path, monkeypatch, resumed):
+    """Without the wandb package installed: a stand-in module records what the logger sends."""
+    import sys
+    import types
+
+    from litl.loop.loggers import make_logger
+
+    fake_run = _FakeWandbRun(resumed)
+    fake = types.ModuleType("wandb")
+    fake.init = lambda **options: fake_run
+    fake.Image = lambda pixels: ("image", pixels.shape)
+    monkeypatch.setitem(sys.modules, "wandb", fake)
+    logger = make_logger("wandb", tmp_path, seeds=[3, 4], iterations=2)
+    assert ("*", {"step_metric": "litl_step"}) in fake_run.metrics
+    history = [{"seed": 3, "step": 0, "task_loss": -0.1}, {"seed": 4, "step": 0, "task_loss": -0.2}]
+    phase = {"seed": 4, "phase": 0, "steps_per_epoch": 5, "sgd_steps": 10,
+             "val_recon_history": [0.3, 0.2], "recon_explained": 0.5}
+    logger.restore(history, [phase])
+    assert (fake_run.logged == []) == resumed       # a resumed W&B run holds its history already
+    logger.iteration([{"seed": 4, "step": 1, "task_loss": -0.25}])
+    last = fake_run.logged[-1]
+    assert last["litl_step"] == 1 and last["seed4/task/loss"] == -0.25
+    # The next phase's per-epoch curve continues after the restored phase's 10 SGD steps.
+    logger.phase([{**phase, "phase": 1, "val_recon_history": [0.1]}])
+    curve = [v for v in fake_run.logged if "seed4/learning/val_recon_by_sgd_step" in v]
+    assert curve[-1]["litl_step"] == 15
+    logger.close()
+    assert fake_run.finished
