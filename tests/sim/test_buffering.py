@@ -33,10 +33,7 @@ def test_auto_keeps_the_measured_cpu_choice_and_is_plain_elsewhere(dim, cpu_choi
         assert resolve_buffering(config) == cpu_choice
 
 
-# Each 3D forward+backward compiles in 15-20 s on 2 cores, so in 3D "auto" (on CPU the node
-# buffering) is checked against the default of the other backends only; 2D checks all three.
-@pytest.mark.parametrize("dim,settings", [(2, SETTINGS), (3, ("none",))])
-def test_every_setting_gives_the_same_values_and_gradients(dim, settings):
+def test_every_setting_gives_the_same_values_and_gradients(dim=2, settings=SETTINGS):
     config, body, design, state = _tiny(dim)
     params = sine_params(body.n_actuators)
 
@@ -68,3 +65,22 @@ def test_unknown_buffering_fails_with_the_choices():
     config = _tiny(2)[0]
     with pytest.raises(ConfigError, match="unknown buffering 'nodes'.*fields_and_nodes"):
         dataclasses.replace(config, buffering="nodes")
+
+
+def test_3d_node_buffering_gives_the_same_rollout_as_none():
+    """In 3D "auto" on CPU also buffers the nodes; the rollout is the same as without buffering
+    (forward only: a 3D forward+backward compiles in 15-20 s per setting on 2 cores, and the
+    gradients of every setting are compared in 2D above)."""
+    config, body, design, state = _tiny(3)
+    params = sine_params(body.n_actuators)
+
+    def forward(buffering):
+        rollout = make_rollout(dataclasses.replace(config, buffering=buffering), body,
+                               sine_policy, 12, snapshot_stride=4)
+        return jax.jit(rollout)(params, design, state)
+
+    auto, none = forward("auto"), forward("none")
+    for a, b in zip(jax.tree.leaves(auto), jax.tree.leaves(none)):
+        # float32 sums in another order: rounding-level differences, relative to each field's size
+        scale = float(np.max(np.abs(b))) if np.size(b) else 0.0
+        np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-4 * scale)
