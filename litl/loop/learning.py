@@ -233,7 +233,8 @@ def _epoch_done(epoch, validation):
         listener(np.asarray(epoch), np.asarray(validation))
 
 
-def make_learning_phase(model: ConvAutoencoder, config: LearningConfig) -> LearningPhase:
+def make_learning_phase(model: ConvAutoencoder, config: LearningConfig,
+                        report_epochs: bool = True) -> LearningPhase:
     """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
     `learn` refits the input scale on the valid buffer entries, trains the network of `params` (Θ′)
@@ -244,10 +245,13 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig) -> Learn
     Args:
       model: the observer architecture.
       config: the phase's hyperparameters.
+      report_epochs: call the `listen_to_epochs` listeners after every epoch (a host callback;
+        a compiled program holding one cannot be reused from JAX's persistent compilation cache
+        in another process, so a run without a progress display leaves it out).
     """
     if not isinstance(config, LearningConfig):
         raise ValueError(f"config must be a LearningConfig, got {type(config).__name__}")
-    return LearningPhase(model, config)
+    return LearningPhase(model, config, report_epochs)
 
 
 def _gather(buffer: ReplayBuffer, slots, mask, dtype):
@@ -265,10 +269,12 @@ class LearningPhase:
     Attributes:
       model: the observer architecture.
       config: the phase's hyperparameters.
+      report_epochs: whether epochs are reported to the `listen_to_epochs` listeners.
     """
 
     model: ConvAutoencoder
     config: LearningConfig
+    report_epochs: bool = True
 
     @property
     def optimizer(self) -> optax.GradientTransformation:
@@ -371,7 +377,8 @@ class LearningPhase:
                                   split.validation_mask)
         validation = means["total"].astype(state.best_loss.dtype)
         epoch = state.epoch + 1
-        jax.debug.callback(_epoch_done, epoch, validation)
+        if self.report_epochs:
+            jax.debug.callback(_epoch_done, epoch, validation)
         improved = validation < state.best_loss
         return _LearningState(
             epoch=epoch,

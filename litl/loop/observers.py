@@ -123,7 +123,8 @@ def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> O
                                 channels=settings.channels, activation=settings.activation.value,
                                 variational=variational)
     adam = optax.adam(learning.learning_rate)
-    learner = Learner(window=window, phase=make_learning_phase(model, learning),
+    learner = Learner(window=window, phase=make_learning_phase(model, learning,
+                                                         report_epochs=config.output.progress),
                       step=vae.make_train_step(model, adam, learning.beta),
                       optimizer_init=lambda params: adam.init(params.network), model=model)
     return Observer(

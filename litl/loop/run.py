@@ -138,7 +138,8 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
     run_dir = pathlib.Path(run_dir)
-    algorithm = make_algorithm(robot, config)
+    # Learning epochs are reported only where a progress display listens (see make_learning_phase).
+    algorithm = make_algorithm(robot, config.replace(output={"progress": progress}))
     wanted = settings(robot, config, algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):

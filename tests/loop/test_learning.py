@@ -310,3 +310,9 @@ def test_the_progress_line_follows_the_epochs_of_a_running_phase(learn, params):
     assert f"learning phase: epoch {int(stats.epochs_used)}, validation loss" in log.getvalue()
     learn(params, buffer, jax.random.key(2))          # nobody listening: nothing is called
     assert len(heard) == int(stats.epochs_used)
+    # A phase built not to report (a run without a progress display) reports to no listener.
+    quiet = jax.jit(learning.make_learning_phase(MODEL, CONFIG, report_epochs=False))
+    with learning.listen_to_epochs(lambda epoch, loss: heard.append((int(epoch), float(loss)))):
+        _, quiet_stats = jax.block_until_ready(quiet(params, buffer, jax.random.key(2)))
+    assert len(heard) == int(stats.epochs_used)
+    assert int(quiet_stats.epochs_used) == int(stats.epochs_used)

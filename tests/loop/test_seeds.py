@@ -18,16 +18,15 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def episode_of(algorithm, batched):
-    """bootstrap -> optimize -> learn -> optimize, jitted (and vmapped when `batched`); the
-    jitted functions are built once, so running several seeds alone compiles once."""
+    """bootstrap (a rollout and a learning phase) -> optimize -> optimize, jitted (and vmapped
+    when `batched`); the jitted functions are built once, so running several seeds alone compiles
+    once. (`algorithm.learn` is the bootstrap's learning phase with a soft update after it.)"""
     wrap = (lambda f: jax.jit(jax.vmap(f))) if batched else jax.jit
-    bootstrap, optimize, learn = (wrap(f) for f in (algorithm.bootstrap, algorithm.optimize,
-                                                    algorithm.learn))
+    bootstrap, optimize = wrap(algorithm.bootstrap), wrap(algorithm.optimize)
 
     def one_episode(state):
-        state, _ = bootstrap(state)
+        state, stats = bootstrap(state)
         state, first = optimize(state)
-        state, stats = learn(state)
         state, second = optimize(state)
         return state, (first["task_loss"], second["task_loss"], stats.recon_loss_val)
 

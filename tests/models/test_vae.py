@@ -27,10 +27,11 @@ def synthetic_fields(n, shape=(32, 32), seed=0):
 
 @pytest.mark.parametrize("grid_shape", [(64, 48), (20, 20, 20)])
 def test_shapes_2d_and_3d(grid_shape):
-    model = vae.ConvAutoencoder(grid_shape, latent_dim=5)
-    params = vae.init_autoencoder(model, jax.random.key(0))
+    model = vae.ConvAutoencoder(grid_shape, latent_dim=5, channels=(4, 4, 8, 8, 8))  # narrow: fast
+    params = jax.jit(vae.init_autoencoder, static_argnums=0)(model, jax.random.key(0))
     fields = jnp.ones((3,) + grid_shape + (len(grid_shape),))
-    reconstruction, mean, log_variance = model.apply(params.network, fields, jax.random.key(1))
+    reconstruction, mean, log_variance = jax.jit(model.apply)(params.network, fields,
+                                                              jax.random.key(1))
     assert reconstruction.shape == fields.shape
     assert mean.shape == log_variance.shape == (3, 5)
     assert vae.make_observer(model)(params, None, fields[0]).shape == (5,)
@@ -120,24 +121,3 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
         single = jax.jit(lambda p: rollout(p, design, state)[0].x)(jax.tree.map(lambda a: a[i], two))
         np.testing.assert_allclose(batched[i], single, rtol=1e-4, atol=1e-5)
 
-
-def test_train_step_vmapped_over_seeds_equals_separate_runs(x64):
-    model = vae.ConvAutoencoder((32, 32), latent_dim=3, channels=(4, 4, 8, 8, 8))
-    optimizer = optax.adam(1e-3)
-    step = vae.make_train_step(model, optimizer)
-    fields = synthetic_fields(16).astype(jnp.float64)
-
-    def run(seed):
-        key = jax.random.key(seed)
-        params = vae.fit_scale(vae.init_autoencoder(model, key, jnp.float64), fields)
-        opt_state = optimizer.init(params.network)
-        for i in range(2):
-            params, opt_state, out = step(params, opt_state, fields, jax.random.fold_in(key, i))
-        return params, out
-
-    batched_params, batched_out = jax.jit(jax.vmap(run))(jnp.arange(2))
-    for seed in range(2):
-        params, out = jax.jit(run)(seed)
-        np.testing.assert_allclose(batched_out["total"][seed], out["total"], rtol=1e-10)
-        for a, b in zip(jax.tree.leaves(batched_params), jax.tree.leaves(params)):
-            np.testing.assert_allclose(a[seed], b, rtol=1e-5, atol=1e-8)  # float32 weights

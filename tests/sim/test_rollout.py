@@ -71,8 +71,8 @@ def test_remat_does_not_change_values_or_gradients(scene):
         rollout = make_rollout(config, body, sine_policy, 30, snapshot_stride=7, remat=remat)
         return lambda p: jnp.mean(rollout(p, design, state)[0].x[:, 0])
 
-    v1, g1 = jax.value_and_grad(loss(True))(params)
-    v2, g2 = jax.value_and_grad(loss(False))(params)
+    v1, g1 = jax.jit(jax.value_and_grad(loss(True)))(params)
+    v2, g2 = jax.jit(jax.value_and_grad(loss(False)))(params)
     np.testing.assert_allclose(v1, v2, rtol=1e-6)
     for a, b in zip(jax.tree.leaves(g1), jax.tree.leaves(g2)):
         np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-7)
