@@ -28,12 +28,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import resource
 import statistics
-import subprocess
-import sys
 import time
+
+from fresh_process import measure_in_fresh_process
 
 RESOLUTIONS = {"demo": 1 / 64, "paper": 1 / 128}
 
@@ -125,13 +124,10 @@ def main(argv=None):
     results = []
     for dx in args.dx:
         for seeds in args.seeds:
-            command = [sys.executable, __file__, "--one", str(seeds), "--repeats",
-                       str(args.repeats), "--dx", str(dx)]
-            command += ["--steps", str(args.steps)] if args.steps else []
-            done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
-            if done.returncode:
-                raise SystemExit(f"dx {dx}, {seeds} seeds failed:\n{done.stderr[-4000:]}")
-            results.append(json.loads(done.stdout.strip().splitlines()[-1]))
+            arguments = ["--one", str(seeds), "--repeats", str(args.repeats), "--dx", str(dx)]
+            arguments += ["--steps", str(args.steps)] if args.steps else []
+            results.append(measure_in_fresh_process(__file__, arguments,
+                                                    f"dx {dx}, {seeds} seeds"))
             if not args.json:
                 r = results[-1]
                 if len(results) == 1:

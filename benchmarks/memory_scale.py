@@ -36,9 +36,9 @@ import argparse
 import json
 import os
 import resource
-import subprocess
-import sys
 import time
+
+from fresh_process import measure_in_fresh_process
 
 import numpy as np
 
@@ -131,14 +131,10 @@ def main(argv=None):
         return
     results = []
     for every in args.checkpoint_every:
-        command = [sys.executable, __file__, "--one", "--particles", str(args.particles),
-                   "--steps", str(args.steps), "--grid", str(args.grid),
-                   "--checkpoint-every", str(every).lower()]
-        command += ["--compile-only"] if args.compile_only else []
-        done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
-        if done.returncode:
-            raise SystemExit(f"checkpoint_every={every} failed:\n{done.stderr[-4000:]}")
-        results.append(json.loads(done.stdout.strip().splitlines()[-1]))
+        arguments = ["--one", "--particles", str(args.particles), "--steps", str(args.steps),
+                     "--grid", str(args.grid), "--checkpoint-every", str(every).lower()]
+        arguments += ["--compile-only"] if args.compile_only else []
+        results.append(measure_in_fresh_process(__file__, arguments, f"checkpoint_every={every}"))
         if not args.json:
             r = results[-1]
             if len(results) == 1:

@@ -21,7 +21,7 @@ import threading
 import time
 
 # One number format for the status line and the report: significant digits, never "-0".
-from litl.report.summary import format_number
+from litl.formatting import format_number
 
 _LABEL = ""
 

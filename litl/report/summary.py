@@ -10,6 +10,7 @@ import pathlib
 
 import numpy as np
 
+from litl.formatting import format_number  # noqa: F401 (litl.report.summary.format_number)
 from litl.report import figures
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
 from litl.report.stats import (
@@ -49,22 +50,6 @@ def _interval(mean, low, high, n: int) -> dict:
         return {"mean": _number(mean), "low": None, "high": None, "half_width": None}
     return {"mean": _number(mean), "low": _number(low), "high": _number(high),
             "half_width": _number(high - mean)}
-
-
-def format_number(value, spec: str = ".4g") -> str:
-    """`value` with significant digits (`spec`), "—" if it is None or not finite, never "-0".
-
-    Args:
-      value: a number or None.
-      spec: a numeric format specification, e.g. ``".4g"`` or ``".3e"``.
-    """
-    if value is None or not math.isfinite(value):
-        return "—"
-    text = format(value, spec)
-    # -0.0, or a tiny negative rounded away (-1e-7 as ".3f"), would print as a negative zero.
-    if text.startswith("-") and not any(c in "123456789" for c in text[1:].lower().split("e")[0]):
-        text = text[1:]
-    return text
 
 
 def unjudged_reason(best: dict) -> str | None:
