@@ -68,6 +68,21 @@ def test_final_parameters_are_saved_and_load(vae_run):
     assert (vae_run.run_dir / "run.json").exists()
 
 
+def test_best_parameters_are_saved_and_load(vae_run):
+    """best.json names each seed's lowest task loss and its step; `which="best"` loads them."""
+    best = json.loads((vae_run.run_dir / "best.json").read_text())
+    assert [b["seed"] for b in best] == [0, 1]
+    for s, entry in enumerate(best):
+        losses = [r["task_loss"] for r in vae_run.metrics if r["seed"] == entry["seed"]]
+        assert entry["task_loss"] == min(losses) and entry["step"] == int(np.argmin(losses))
+    saved = load_final(vae_run.run_dir, tiny_robot(), tiny_config(loop={"episodes": 3}),
+                       which="best")
+    np.testing.assert_array_equal(saved["design"], vae_run.state.best.design)
+    for a, b in zip(jax.tree.leaves(saved["controller"]),
+                    jax.tree.leaves(vae_run.state.best.controller)):
+        np.testing.assert_array_equal(a, b)
+
+
 @pytest.mark.slow
 def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
     run_dir = tmp_path / "killed"

@@ -5,10 +5,9 @@ import json
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pytest
 
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
-from litl.loop.run import load_final, run
+from litl.loop.run import run
 from litl.pictures import draw_run
 from litl.robots.robot import Robot
 from litl.sim import Boundary, SimConfig
@@ -74,18 +73,3 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
     assert "pictures: skipping seed 0" in err and "pictures: skipping seed 1" in err
     assert "no seed has a finite final rollout" in err
     assert (tmp_path / "robot.png") in written and not (tmp_path / "robot.gif").exists()
-
-
-@pytest.mark.slow
-def test_best_parameters_are_saved_and_pictures_work_with_a_clocked_controller(tmp_path):
-    config = tiny_config(controller={"period": 0.05}, seeds=1,
-                         loop={"episodes": 1, "iterations": 3})
-    result = run(tiny_robot(), config, tmp_path, progress=False)
-    best = json.loads((tmp_path / "best.json").read_text())[0]
-    losses = [r["task_loss"] for r in result.metrics]
-    assert best["task_loss"] == min(losses) and best["step"] == int(np.argmin(losses))
-    saved = load_final(tmp_path, tiny_robot(), config, which="best")
-    assert _same(saved["design"], result.state.best.design)
-    written = draw_run(tiny_robot(), config, result, tmp_path)
-    names = {path.name for path in written}
-    assert {"robot.gif", "saliency.gif", "snapshots.png", "task_loss.png"} <= names
