@@ -101,6 +101,7 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
 @pytest.mark.parametrize("override, message", [
     ("observer.latent_dim=0", "^observer.latent_dim=0: must be a positive integer"),
     ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
+    ("controller.feature_scale=0", "^controller.feature_scale=0.0: must be a positive number"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
     ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
 ])

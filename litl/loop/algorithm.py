@@ -185,7 +185,8 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
     if settings.kind == ControllerKind.sinusoid:
         return SinusoidController(robot.n_actuators, omega=settings.omega)
-    return MLPController(robot.n_actuators, settings.widths, period=settings.period)
+    return MLPController(robot.n_actuators, settings.widths, period=settings.period,
+                         feature_scale=settings.feature_scale)
 
 
 def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, stride: int):

@@ -21,12 +21,14 @@ class MLPController(nn.Module):
       widths: hidden layer widths.
       activation: name in `ACTIVATIONS`.
       period: if set, the clock phase 2 pi t / period enters as (sin, cos).
+      feature_scale: the features are multiplied by this on entry (an input gain).
     """
 
     n_actuators: int
     widths: Sequence[int] = (64, 64)
     activation: str = "tanh"
     period: float | None = None
+    feature_scale: float = 1.0
 
     def __post_init__(self):
         if self.activation not in ACTIVATIONS:
@@ -35,12 +37,14 @@ class MLPController(nn.Module):
             raise ValueError("n_actuators and every width must be positive")
         if self.period is not None and not self.period > 0:
             raise ValueError(f"period must be positive, got {self.period!r}")
+        if not self.feature_scale > 0:
+            raise ValueError(f"feature_scale must be positive, got {self.feature_scale!r}")
         super().__post_init__()
 
     @nn.compact
     def __call__(self, features, task_inputs=None, time=None):
         """features: (f,); task_inputs: (t,) or None; time: () simulated time, used with `period`."""
-        parts = [features]
+        parts = [features if self.feature_scale == 1.0 else features * self.feature_scale]
         if task_inputs is not None:
             parts.append(task_inputs)
         if self.period is not None:

@@ -172,6 +172,12 @@ def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
         assert (np.ptp(actuation, axis=0).max() > 1e-3) == clocked
         # One period later the clock reads the same.
         np.testing.assert_allclose(actuation[-1], actuation[0], atol=1e-5)
+    # The controller takes the configured input gain on the features (0.2 by default).
+    for scale in (None, 1.0):
+        changes = {} if scale is None else {"controller": {"feature_scale": scale}}
+        algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
+                                                             **changes))
+        assert algorithm.controller.feature_scale == (0.2 if scale is None else scale)
 
 
 def test_learned_observer_sees_a_window_that_follows_the_robot():

@@ -53,6 +53,19 @@ def test_controller_rejects_bad_settings():
     controller = MLPController(n_actuators=2, period=1.0)
     with pytest.raises(ValueError, match="pass the simulated time"):
         controller.init(jax.random.key(0), jnp.ones(3))
+    with pytest.raises(ValueError, match="feature_scale must be positive"):
+        MLPController(n_actuators=2, feature_scale=0.0)
+
+
+def test_feature_scale_is_an_input_gain_on_the_features_only():
+    plain = MLPController(n_actuators=2, widths=(8,), period=0.5)
+    scaled = MLPController(n_actuators=2, widths=(8,), period=0.5, feature_scale=0.25)
+    features = jnp.asarray([0.3, -1.2, 2.0])
+    params = plain.init(jax.random.key(0), features, time=0.0)
+    np.testing.assert_allclose(scaled.apply(params, features, time=0.3),
+                               plain.apply(params, 0.25 * features, time=0.3), rtol=1e-6)
+    assert not np.allclose(scaled.apply(params, features, time=0.3),
+                           plain.apply(params, features, time=0.3))
 
 
 def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():
