@@ -38,9 +38,9 @@ import os
 import resource
 import time
 
-from fresh_process import measure_in_fresh_process
-
 import numpy as np
+
+from fresh_process import measure_in_fresh_process
 
 
 def _current_rss_mb() -> float:

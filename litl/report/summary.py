@@ -10,7 +10,7 @@ import pathlib
 
 import numpy as np
 
-from litl.formatting import format_number  # noqa: F401 (litl.report.summary.format_number)
+from litl.formatting import format_number
 from litl.report import figures
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
 from litl.report.stats import (
