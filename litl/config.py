@@ -72,6 +72,11 @@ class Activation(enum.StrEnum):
     relu = "relu"                   # the paper's
 
 
+class GridField(enum.StrEnum):
+    velocity = "velocity"            # node momentum / mass, the paper's
+    mass_weighted = "mass_weighted"  # node velocity * mass / a full cell's mass (litl.sim.fields)
+
+
 class FeatureGradient(enum.StrEnum):
     stop = "stop"                   # the task-loss gradient treats the features as constants
     full = "full"                   # the paper's end-to-end backpropagation through them
@@ -164,7 +169,7 @@ class _Checked:
 
 def _enum_of(annotation):
     text = str(annotation)
-    for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, FeatureGradient,
+    for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, GridField, FeatureGradient,
                  LoggerKind, DType):
         if kind.__name__ in text:
             return kind
@@ -248,6 +253,10 @@ class ObserverConfig(_Checked):
         None: the whole grid, as in the paper. The replay buffer stores these windows.
       channels: widths of the five encoder convolutions.
       activation: the (V)AE's activation (`Activation`).
+      field: what the (V)AE sees of the grid and the replay buffer stores (`GridField`): the
+        node velocities (the paper's), or the velocities weighted by the node's mass relative to
+        a full cell (`litl.sim.fields`), which fades the boundary's light nodes whose
+        momentum / mass is dominated by numerical noise.
       clusters: k, clusters of the k-means observer.
       module: a module to import first, which registers observers of your own
         (`litl.loop.observers.register`); then kind=<its name>.
@@ -259,6 +268,7 @@ class ObserverConfig(_Checked):
     window: Optional[float] = 0.5
     channels: Tuple[int, ...] = (8, 16, 32, 32, 64)
     activation: Activation = Activation.elu
+    field: GridField = GridField.mass_weighted
     clusters: int = 6
     module: Optional[str] = None
 

@@ -75,7 +75,8 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
         try:
             recording = record_rollout(
                 robot, algorithm.policy, (state.controller, state.observer), steps,
-                design=robot.design_space.to_design(state.design), stride=min(stride, steps), check=True)
+                design=robot.design_space.to_design(state.design), stride=min(stride, steps), check=True,
+                field=algorithm.field)
         except SimulationError as error:
             say(f"pictures: skipping seed {config.seed + index}: {error}")
             continue

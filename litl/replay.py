@@ -130,7 +130,8 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     design = np.asarray(one["design"])
     positions, actuation = record_rollout(
         robot, algorithm.policy, (one["controller"], one["observer"]), steps,
-        design=space.to_design(design), stride=min(stride, steps), check=False)
+        design=space.to_design(design), stride=min(stride, steps), check=False,
+        field=algorithm.field)
     coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" \
         else {}
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -158,7 +159,8 @@ def _components(robot, algorithm, params, steps) -> dict:
 
     from litl.sim import make_rollout
 
-    rollout = jax.jit(make_rollout(robot.config, robot.body(), algorithm.policy, steps))
+    rollout = jax.jit(make_rollout(robot.config, robot.body(), algorithm.policy, steps,
+                                   field=algorithm.field))
     initial = robot.initial_state()
     final, _ = rollout((params["controller"], params["observer"]),
                        robot.design_space.to_design(params["design"]), initial)

@@ -31,7 +31,7 @@ import optax
 from flax import struct
 
 from litl.loop import observers
-from litl.config import Config, ControllerKind, FeatureGradient, Schedule, SettingsError
+from litl.config import Config, ControllerKind, FeatureGradient, GridField, Schedule, SettingsError
 from litl.loop.learning import LearningStats, soft_update
 from litl.loop.observers import Observer
 from litl.loop.replay import ReplayBuffer, add, replace_with
@@ -40,6 +40,7 @@ from litl.models.open_loop import SinusoidController
 from litl.robots.robot import Robot
 from litl.models.window import Window
 from litl.sim import make_rollout
+from litl.sim.fields import full_cell_mass, grid_velocity, mass_weighted_velocity
 from litl.sim.rollout import centroid
 
 
@@ -129,10 +130,12 @@ class Algorithm:
     # at the start), "simultaneous" (one observer step per optimization iteration, no phases) or
     # "fixed" (an observer that does not learn).
     schedule: str
-    # For pictures and replays of one seed: policy((controller, observer), state, grid_velocity)
-    # and the controller module.
+    # For pictures and replays of one seed: policy((controller, observer), state, grid_field),
+    # the controller module, and field(grid), the grid field the policy reads
+    # (`litl.sim.fields`; pass it to `make_rollout`).
     policy: Callable
     controller: MLPController | SinusoidController
+    field: Callable
 
     @property
     def n_features(self) -> int:
@@ -179,7 +182,7 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
     return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, optimize=pieces.optimize,
                      learn=pieces.learn, evaluate=pieces.evaluate, steps=steps,
                      observer=observer, schedule=schedule, policy=pieces.policy,
-                     controller=pieces.controller)
+                     controller=pieces.controller, field=pieces.field)
 
 
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
@@ -255,10 +258,17 @@ class _Pieces:
         return self.controller.apply(controller_params, features.astype(self.dtype), time=time)
 
     @functools.cached_property
+    def field(self):
+        """field(grid): what the policy reads of the grid and the snapshots record."""
+        if self.config.observer.field == GridField.mass_weighted:
+            scene = self.scene
+            return mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
+        return grid_velocity
+
+    @functools.cached_property
     def rollout(self):
-        observe = centroid if self.learner is not None else lambda state: ()
         return make_rollout(self.scene.config, self.scene.body, self.policy, self.steps,
-                            snapshot_stride=self.stride, observe=observe)
+                            snapshot_stride=self.stride, observe=centroid, field=self.field)
 
     def simulate(self, controller_params, design, observer):
         """(task loss, (its components, the trajectory)) of one rollout from the initial state."""
@@ -274,6 +284,15 @@ class _Pieces:
             trajectory = trajectory.replace(
                 snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres))
         return total, (components, trajectory)
+
+    def snapshot_velocities(self, trajectory):
+        """(n_snapshots, d) the robot's mean particle velocity at each snapshot, from the
+        centroids recorded before and after the step that produced it (x += dt v, so the
+        difference is exact for free particles)."""
+        centres = jnp.concatenate([centroid(self.scene.state)[None], trajectory.observations])
+        velocity = (centres[1:] - centres[:-1]) / self.scene.config.dt
+        stride = self.stride
+        return velocity[stride - 1::stride][:trajectory.snapshots.shape[0]]
 
     def init(self, seed: int) -> LoopState:
         """Random θ and Θ for `seed`, φ0, optimizer states, an empty buffer."""
@@ -325,7 +344,8 @@ class _Pieces:
         total, (_, trajectory) = self.simulate(state.controller, state.design, state.observer)
         # A failed rollout's snapshots never enter the buffer.
         healthy = skip_reason(trajectory.health, total, jnp.zeros((), self.dtype)) == 0
-        buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots), state.buffer)
+        buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots,
+                                      self.snapshot_velocities(trajectory)), state.buffer)
         # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
         return self.learn(state.replace(buffer=buffer), alpha=1.0)
 
@@ -346,7 +366,8 @@ class _Pieces:
         state = self.step_parameters(state, controller_grad, design_grad)
         snapshots = trajectory.snapshots
         keep = add if self.config.loop.replay else replace_with
-        state = state.replace(buffer=keep(state.buffer, snapshots))
+        state = state.replace(buffer=keep(state.buffer, snapshots,
+                                          self.snapshot_velocities(trajectory)))
         recon = jnp.full((), jnp.nan, self.dtype)
         if self.schedule == Schedule.simultaneous:
             state, key = self.split_key(state)

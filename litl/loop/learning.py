@@ -80,7 +80,7 @@ class LearningStats:
         (variance > 0.01, Burda et al. 2016).
       velocity_r2: (d,) how well the codes tell the robot's velocity: R² over the validation half
         of a linear (least-squares) fit on the training half from [code, 1] to each component
-        of the snapshot's mean velocity over occupied nodes.
+        of the robot's velocity at the snapshot (the particles' mean velocity, `ReplayBuffer`).
       kl: mean KL divergence per snapshot over the validation half.
       val_loss: the early-stopping criterion, recon_loss_val + beta * kl / values per snapshot.
       epochs_used: () int32 epochs run before stopping.
@@ -145,14 +145,6 @@ def fit_scale_masked(params: AutoencoderParams, fields, mask, floor=1e-6) -> Aut
     occupied = speed_sq > 0
     rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
     return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
-
-
-def _occupied_mean_velocity(fields):
-    """(B, *grid, d) fields -> (B, d) mean velocity over each field's nonzero nodes (0 if none)."""
-    axes = tuple(range(1, fields.ndim - 1))
-    occupied = jnp.any(fields != 0, axis=-1, keepdims=True)
-    count = jnp.maximum(jnp.sum(occupied, axis=axes), 1)
-    return jnp.sum(jnp.where(occupied, fields, 0), axis=axes) / count
 
 
 def fit_readout(gram, cross, ridge=1e-6):
@@ -294,8 +286,8 @@ class LearningPhase:
 
         recon, kl, total and signal (mean squared input) per snapshot; code and code_square, the
         mean and mean square of the (r,) codes; gram and cross, the moments A^T A / n and
-        A^T y / n of a linear readout y ~ A b from A = [code, 1] to y = the snapshot's mean
-        velocity over occupied nodes (normalized); with a readout b ((r + 1, d)): residual, the
+        A^T y / n of a linear readout y ~ A b from A = [code, 1] to y = the robot's velocity
+        stored with the snapshot (`ReplayBuffer.velocities`); with a readout b ((r + 1, d)): residual, the
         mean squared error of A b per velocity component, and target, target_square, the mean and
         mean square of y.
         """
@@ -307,7 +299,7 @@ class LearningPhase:
             out = self.losses(params, fields, None)
             code = out["code"][:, 0]
             features = jnp.concatenate([code, jnp.ones_like(code[:, :1])], axis=1)
-            target = _occupied_mean_velocity(fields / params.scale)
+            target = jnp.where(chunk_mask[:, None], buffer.velocities[chunk_slots], 0).astype(dtype)
             out = {**out, "code": code, "code_square": code**2,
                    "gram": features[:, :, None] * features[:, None, :],
                    "cross": features[:, :, None] * target[:, None, :]}

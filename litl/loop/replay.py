@@ -1,5 +1,9 @@
 """Experience replay buffer of grid velocity snapshots (paper Sec. 4, Alg. 1 line "Store Υ_j in I").
 
+Beside each snapshot the buffer keeps the robot's velocity at that moment (the particles' mean
+velocity), which the learning phase uses to score its codes (`LearningStats.velocity_r2`) and
+never trains on.
+
 A fixed-capacity ring buffer held as a pytree, so that adding snapshots is jittable and a batch of
 seeds is one `jax.vmap`. Its arrays keep a static shape; how many slots hold data is the dynamic
 `count`. Slots fill in order 0, 1, ..., so before the buffer is full the valid slots are exactly
@@ -20,11 +24,13 @@ class ReplayBuffer:
     Attributes:
       fields: (capacity, *grid_shape, d) stored snapshots; slots outside the valid ones hold stale
         or zero data and must be masked (`valid_mask`).
+      velocities: (capacity, d) the robot's mean particle velocity at each snapshot.
       count: () int32 number of valid entries, at most capacity.
       cursor: () int32 slot the next snapshot is written to (the oldest entry once full).
     """
 
     fields: jnp.ndarray
+    velocities: jnp.ndarray
     count: jnp.ndarray
     cursor: jnp.ndarray
 
@@ -50,6 +56,7 @@ class ReplayBuffer:
             )
         return cls(
             fields=jnp.zeros((capacity,) + grid_shape + (dim,), dtype),
+            velocities=jnp.zeros((capacity, dim), dtype),
             count=jnp.zeros((), jnp.int32),
             cursor=jnp.zeros((), jnp.int32),
         )
@@ -66,7 +73,16 @@ def _check_snapshots(buffer: ReplayBuffer, snapshots) -> jnp.ndarray:
     return snapshots.astype(buffer.fields.dtype)
 
 
-def add(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
+def occupied_mean(snapshots) -> jnp.ndarray:
+    """(k, *grid, d) fields -> (k, d) mean over each field's nonzero nodes (0 if none): the
+    velocity stored for snapshots recorded without the robot's own."""
+    axes = tuple(range(1, snapshots.ndim - 1))
+    occupied = jnp.any(snapshots != 0, axis=-1, keepdims=True)
+    count = jnp.maximum(jnp.sum(occupied, axis=axes), 1)
+    return jnp.sum(jnp.where(occupied, snapshots, 0), axis=axes) / count
+
+
+def add(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
     """Append k snapshots, overwriting the oldest entries once the buffer is full.
 
     The result is the same as writing the snapshots one at a time: if k exceeds the capacity only
@@ -75,6 +91,8 @@ def add(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
     Args:
       buffer: the buffer to add to.
       snapshots: (k, *grid_shape, d) velocity fields, oldest first.
+      velocities: (k, d) the robot's velocity at each snapshot; None: `occupied_mean` of the
+        snapshots.
 
     Returns:
       The buffer with count = min(count + k, capacity) and cursor advanced by k (mod capacity).
@@ -83,6 +101,12 @@ def add(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
     capacity, k = buffer.capacity, snapshots.shape[0]
     if k == 0:
         return buffer
+    if velocities is None:
+        velocities = occupied_mean(snapshots)
+    velocities = jnp.asarray(velocities, buffer.velocities.dtype)
+    if velocities.shape != (k, buffer.velocities.shape[1]):
+        raise ValueError(f"velocities must have shape ({k}, {buffer.velocities.shape[1]}), one "
+                         f"per snapshot, got {velocities.shape}")
     # Earlier snapshots of an oversize add would be overwritten by later ones; skip writing them so
     # that the scatter has unique slots (duplicate slots in a scatter are written in no set order).
     skipped = max(k - capacity, 0)
@@ -90,26 +114,29 @@ def add(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
     slots = (buffer.cursor + skipped + jnp.arange(kept.shape[0])) % capacity
     return buffer.replace(
         fields=buffer.fields.at[slots].set(kept, unique_indices=True),
+        velocities=buffer.velocities.at[slots].set(velocities[skipped:], unique_indices=True),
         count=jnp.minimum(buffer.count + k, capacity).astype(jnp.int32),
         cursor=((buffer.cursor + k) % capacity).astype(jnp.int32),
     )
 
 
 def clear(buffer: ReplayBuffer) -> ReplayBuffer:
-    """The same buffer emptied: zero fields, count and cursor."""
+    """The same buffer emptied: zero fields, velocities, count and cursor."""
     return buffer.replace(
         fields=jnp.zeros_like(buffer.fields),
+        velocities=jnp.zeros_like(buffer.velocities),
         count=jnp.zeros_like(buffer.count),
         cursor=jnp.zeros_like(buffer.cursor),
     )
 
 
-def replace_with(buffer: ReplayBuffer, snapshots) -> ReplayBuffer:
-    """Keep only `snapshots` (k, *grid_shape, d): the "no replay buffer" ablation.
+def replace_with(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
+    """Keep only `snapshots` (k, *grid_shape, d) (and their `velocities`, see `add`): the "no
+    replay buffer" ablation.
 
     Each learning phase then sees only the latest rollout (its newest `capacity` snapshots).
     """
-    return add(clear(buffer), snapshots)
+    return add(clear(buffer), snapshots, velocities)
 
 
 def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:

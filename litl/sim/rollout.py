@@ -1,7 +1,8 @@
 """Rollouts: a `lax.scan` over steps with rematerialization, driven by a policy callback.
 
-The policy sees the current state and the latest post-boundary grid velocity (the observer's input)
-and returns one actuation value per actuator:
+The policy sees the current state and the latest post-boundary grid field (the observer's input:
+the grid velocity unless `make_rollout` is given another `field`, see `litl.sim.fields`) and
+returns one actuation value per actuator:
 
     policy(policy_params, state, grid_velocity) -> (m,) actuation
 
@@ -18,6 +19,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from litl.sim.config import SimConfig
+from litl.sim.fields import GridField, grid_velocity as velocity_field
 from litl.sim.state import Body, Design, SimState
 from litl.sim.step import Components, make_component_step, rasterize
 
@@ -96,6 +98,7 @@ def make_rollout(
     remat: bool = True,
     checkpoint_every: int | None = None,
     stress=None,
+    field: GridField = velocity_field,
 ):
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
@@ -110,13 +113,15 @@ def make_rollout(
       body: particle layout (volumes, actuator ids, fibers, pinned particles).
       policy: ``policy(params, state, grid_velocity) -> (m,) actuation``.
       steps: number of steps (> 0).
-      snapshot_stride: record the grid velocity every this many steps (None: no snapshots).
+      snapshot_stride: record the grid field every this many steps (None: no snapshots).
       observe: per-step observation of the state, recorded after every step.
       remat: rematerialize each step in the backward pass (`jax.checkpoint`).
       checkpoint_every: also checkpoint segments of this many steps (a multiple of
         `snapshot_stride` when both are given); None: no segments.
       stress: ``stress(F, mu, lam) -> tau``, the constitutive model (see `litl.sim.make_step`);
         None: `config.constitutive_model`'s.
+      field: ``field(grid) -> (*grid_shape, d)``, what the policy reads and the snapshots record
+        of each step's `Grid` (`litl.sim.fields`; default: the node velocities).
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -151,7 +156,7 @@ def make_rollout(
             index = components.step
             components, grid = step_fn(components, actuation, design, counter)
             health = health.record(config, components, index)
-            return (components, grid.velocity, health), (observe(components.pack()), actuation)
+            return (components, field(grid), health), (observe(components.pack()), actuation)
 
         if remat:
             one_step = jax.checkpoint(one_step)
@@ -166,8 +171,8 @@ def make_rollout(
         if checkpoint_every:
             run_segment = jax.checkpoint(run_segment)
 
-        grid_velocity = rasterize(config, body, initial_state, design).velocity
-        carry = (Components.unpack(initial_state), grid_velocity, Health.ok())
+        carry = (Components.unpack(initial_state), field(rasterize(config, body, initial_state, design)),
+                 Health.ok())
         segment_steps = unit * units_per_segment
         carry, (observed, snapshots) = jax.lax.scan(
             run_segment, carry, segment_steps * _counter(n_segments))

@@ -148,7 +148,7 @@ def save_animation(animation, path: Path, writer, dpi: int) -> None:
 
 
 def record_rollout(robot, policy, policy_params, steps: int, design=None, stride: int = 1,
-                   check: bool = True):
+                   check: bool = True, field=None):
     """Simulate `robot` under `policy` and return what `animate_rollout` draws.
 
     Runs `litl.sim.make_rollout` (jitted) from the robot's rest state, recording every particle's
@@ -164,6 +164,8 @@ def record_rollout(robot, policy, policy_params, steps: int, design=None, stride
       stride: keep the state after steps stride, 2 stride, ... (every `stride`-th step).
       check: raise `litl.sim.SimulationError` if the rollout blew up or lost particles (set False
         to look at a failure).
+      field: what the policy reads of the grid (`litl.sim.fields`; a run's `algorithm.field`);
+        None: the node velocities.
 
     Returns:
       positions: (steps // stride, n, d) numpy positions after steps stride, 2 stride, ...
@@ -173,8 +175,11 @@ def record_rollout(robot, policy, policy_params, steps: int, design=None, stride
 
     if not isinstance(stride, int) or not 0 < stride <= steps:
         raise VizError(f"stride must be an integer in [1, steps={steps}], got {stride!r}")
+    from litl.sim.fields import grid_velocity
+
     rollout = jax.jit(make_rollout(robot.config, robot.body(), policy, steps,
-                                   observe=lambda state: state.x, remat=False))
+                                   observe=lambda state: state.x, remat=False,
+                                   field=field or grid_velocity))
     design = robot.design_space.to_design() if design is None else design
     _, trajectory = rollout(policy_params, design, robot.initial_state())
     if check:

@@ -267,7 +267,7 @@ def test_velocity_readout_r2_has_known_answers():
     # The target: the mean velocity over occupied nodes (empty nodes do not dilute it).
     field = np.zeros((1, 8, 8, 2), np.float32)
     field[0, 2:4, 2:4] = (1.0, -2.0)
-    np.testing.assert_allclose(learning._occupied_mean_velocity(jnp.asarray(field)), [[1.0, -2.0]])
+    np.testing.assert_allclose(replay.occupied_mean(jnp.asarray(field)), [[1.0, -2.0]])
 
 
 def test_learning_stats_velocity_r2_matches_an_independent_fit(params):

@@ -91,3 +91,20 @@ def test_bad_inputs():
         replay.add(buffer, jnp.zeros((2, 4, 4, 2)))
     with pytest.raises(ValueError, match="snapshots must have shape"):
         replay.replace_with(buffer, jnp.zeros(GRID + (2,)))  # a single field without the k axis
+
+
+def test_velocities_are_kept_beside_their_snapshots():
+    buffer = ReplayBuffer.empty(4, GRID, 2)
+    given = jnp.asarray([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+    buffer = jax.jit(replay.add)(buffer, snapshots(0, 3), given)
+    buffer = replay.add(buffer, snapshots(3, 3), given + 10)       # wraps: slots 3, 0, 1
+    np.testing.assert_array_equal(buffer.velocities,
+                                  [[13.0, 14.0], [15.0, 16.0], [5.0, 6.0], [11.0, 12.0]])
+    # Without velocities a snapshot's own occupied-node mean stands in.
+    field = np.zeros((1,) + GRID + (2,), np.float32)
+    field[0, 1:3, 0] = (1.0, -2.0)
+    alone = replay.add(ReplayBuffer.empty(2, GRID, 2), field)
+    np.testing.assert_allclose(alone.velocities[0], [1.0, -2.0])
+    with pytest.raises(ValueError, match="velocities must have shape"):
+        replay.add(alone, snapshots(0, 2), given)
+    assert not np.any(replay.clear(buffer).velocities)
