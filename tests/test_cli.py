@@ -85,6 +85,7 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
     ("robot.dx=0.03", "must divide the domain"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
+    ("observer.field=speed", "Invalid value 'speed', expected one of \\[velocity, mass_weighted\\]"),
     ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
@@ -102,6 +103,7 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
     ("observer.latent_dim=0", "^observer.latent_dim=0: must be a positive integer"),
     ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
     ("controller.feature_scale=0", "^controller.feature_scale=0.0: must be a positive number"),
+    ("loop.update_tolerance=-0.1", "^loop.update_tolerance=-0.1: must be a number >= 0, or null"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
     ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
 ])

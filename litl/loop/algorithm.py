@@ -160,7 +160,7 @@ def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
                          kl=nan, val_loss=nan,
                          epochs_used=zero, best_epoch=zero,
                          val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
-                         steps_per_epoch=zero)
+                         steps_per_epoch=zero, update_accepted=jnp.ones((), bool))
 
 
 def make_algorithm(robot: Robot, config: Config) -> Algorithm:
@@ -329,15 +329,30 @@ class _Pieces:
         key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
         return state.replace(key=jax.random.key_data(key)), sub
 
-    def learn(self, state: LoopState, alpha=None):
-        """A learning phase on a copy Θ′, then Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`)."""
+    def learn(self, state: LoopState, alpha=None, check: bool = True):
+        """A learning phase on a copy Θ′, then Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`), kept only
+        if the controller does no worse with it (`loop.update_tolerance`; `check` False: kept)."""
         if self.learner is None:
             return state, state.stats
         alpha = self.config.loop.alpha if alpha is None else alpha
         state, key = self.split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
-        return state.replace(observer=soft_update(state.observer, trained, alpha),
-                             stats=stats), stats
+        updated = soft_update(state.observer, trained, alpha)
+        tolerance = self.config.loop.update_tolerance
+        if check and tolerance is not None:
+            accepted = self.update_is_safe(state, updated, tolerance)
+            updated = keep_if(accepted, updated, state.observer)
+            stats = stats.replace(update_accepted=accepted)
+        return state.replace(observer=updated, stats=stats), stats
+
+    def update_is_safe(self, state: LoopState, updated, tolerance: float):
+        """() bool: the current controller and design, simulated with the `updated` observer,
+        reach a task loss within tolerance * |loss| of the one they reach with the current
+        observer (and a finite one)."""
+        before, _ = self.simulate(state.controller, state.design, state.observer)
+        after, _ = self.simulate(state.controller, state.design, updated)
+        return jnp.isfinite(after) & (~jnp.isfinite(before) |
+                                      (after <= before + tolerance * jnp.abs(before)))
 
     def bootstrap(self, state: LoopState):
         """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
@@ -347,7 +362,7 @@ class _Pieces:
         buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots,
                                       self.snapshot_velocities(trajectory)), state.buffer)
         # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
-        return self.learn(state.replace(buffer=buffer), alpha=1.0)
+        return self.learn(state.replace(buffer=buffer), alpha=1.0, check=False)
 
     def optimize(self, state: LoopState):
         """One optimization iteration (see the module docstring); returns (state, metrics)."""

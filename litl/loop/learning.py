@@ -86,6 +86,10 @@ class LearningStats:
       epochs_used: () int32 epochs run before stopping.
       best_epoch: () int32 epoch (1-based) whose parameters were kept; 0 if no epoch ran or none
         reached a finite validation loss (the parameters are then returned untrained).
+      val_recon_history: (max_epochs,) validation reconstruction loss per epoch (NaN: not run).
+      steps_per_epoch: () int32 SGD steps (minibatches) per epoch.
+      update_accepted: () bool, whether the observer took this phase's soft update (False: the
+        loop's check `loop.update_tolerance` kept the old observer; True where unchecked).
     """
 
     recon_loss_train: jnp.ndarray
@@ -99,6 +103,7 @@ class LearningStats:
     best_epoch: jnp.ndarray
     val_recon_history: jnp.ndarray
     steps_per_epoch: jnp.ndarray
+    update_accepted: jnp.ndarray
 
 
 @struct.dataclass
@@ -420,6 +425,7 @@ class LearningPhase:
             best_epoch=final.best_epoch,
             val_recon_history=final.val_recon_history,
             steps_per_epoch=steps_per_epoch,
+            update_accepted=jnp.ones((), bool),
         )
 
     def __call__(self, params: AutoencoderParams, buffer: ReplayBuffer, key):

@@ -8,7 +8,7 @@ writes into the run directory:
 * `metrics.jsonl`: one JSON line per optimization iteration and seed (see `run`);
 * `learning.jsonl`: one JSON line per learning phase and seed: seed, phase (0: the initial
   training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch, sgd_steps,
-  recon_explained, active_units, velocity_r2 (see `LearningStats`), wall_s (the phase's time
+  recon_explained, active_units, velocity_r2, update_accepted (see `LearningStats`), wall_s (the phase's time
   for all seeds, compilation included in phase 0) and val_recon_history (validation
   reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
@@ -102,6 +102,8 @@ def _json_value(value):
     value = np.asarray(value)
     if value.ndim:
         return [_json_value(v) for v in value]
+    if value.dtype == bool:
+        return bool(value)
     if np.issubdtype(value.dtype, np.integer):
         return int(value)
     value = float(value)
@@ -386,7 +388,7 @@ def _phase_statistics(stats, s: int) -> dict:
     """Seed `s`'s statistics of a learning phase (`LearningStats`, batched over seeds)."""
     return {name: _json_value(getattr(stats, name)[s])
             for name in ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units",
-                         "velocity_r2", "kl")}
+                         "velocity_r2", "kl", "update_accepted")}
 
 
 def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:

@@ -90,14 +90,14 @@ def _check_times(times, count):
 
 def saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
              controller: MLPController, controller_params, field, time=None) -> np.ndarray:
-    """Gradient of every actuator signal w.r.t. the velocity field, times the field.
+    """Gradient of every actuator signal w.r.t. the observed grid field, times the field.
 
     Args:
       model: the observer's autoencoder.
       observer_params: its parameters (one seed); the field is divided by their scale first.
       controller: the `MLPController` fed by the encoder means.
       controller_params: its parameters (one seed).
-      field: (*grid_shape, d) raw grid velocity.
+      field: (*grid_shape, d) the grid field the observer reads (a replay-buffer snapshot).
       time: () simulated time, needed by a controller with a clock (`period`).
 
     Returns:

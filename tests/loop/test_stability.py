@@ -73,3 +73,27 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
     assert "pictures: skipping seed 0" in err and "pictures: skipping seed 1" in err
     assert "no seed has a finite final rollout" in err
     assert (tmp_path / "robot.png") in written and not (tmp_path / "robot.gif").exists()
+
+
+def test_an_observer_update_that_breaks_the_controller_is_refused():
+    """loop.update_tolerance: the stepped observer is simulated with the current controller; a
+    worse (here: non-finite) result keeps the old observer, and the phase says so."""
+    algorithm = make_algorithm(tiny_robot(), tiny_config(loop={"update_tolerance": 0.0}))
+    pieces = algorithm.learn.__self__
+    state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
+    assert bool(state.stats.update_accepted)                      # the bootstrap is not checked
+    safe = jax.jit(pieces.update_is_safe, static_argnums=2)
+    assert bool(safe(state, state.observer, 0.0))                 # the same observer: no worse
+    broken = state.observer.replace(scale=jnp.full_like(state.observer.scale, jnp.nan))
+    assert not bool(safe(state, broken, 0.0))
+    # A refused step leaves Θ as it was; an accepted one moves it.
+    object.__setattr__(pieces, "update_is_safe", lambda *args: jnp.asarray(False))
+    refused, stats = algorithm.learn(state)
+    assert not bool(stats.update_accepted) and _same(refused.observer, state.observer)
+    object.__setattr__(pieces, "update_is_safe", lambda *args: jnp.asarray(True))
+    taken, stats = algorithm.learn(state)
+    assert bool(stats.update_accepted) and not _same(taken.observer, state.observer)
+    # None: the paper's loop, never checked.
+    unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"update_tolerance": None}))
+    _, stats = unchecked.learn(state)
+    assert bool(stats.update_accepted)
