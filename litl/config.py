@@ -392,6 +392,10 @@ class LoopConfig(_Checked):
         forward simulations per phase. None: always step (the paper's Algorithm 1). A retrained
         observer moves the controller's inputs; measured on `experiment=biped_compare` (10
         seeds), unchecked steps threw two seeds from 0.26-0.33 to 0.09-0.11 in the last episode.
+      step_back_tolerance: an optimization iteration whose task loss is worse than the last
+        accepted iterate's by more than this fraction of |its loss| goes back to that iterate
+        and retakes its step at half the size (at most 3 halvings in a row; `stepped_back` in
+        metrics.jsonl); no simulation is repeated. None: every step is kept (the paper's).
       replay: keep a replay buffer; False keeps only the latest rollout's snapshots.
       schedule: how learning alternates with optimization (`Schedule`).
       codesign: optimize the design φ with the controller; False: control only.
@@ -407,6 +411,7 @@ class LoopConfig(_Checked):
     replay_capacity: int = 500
     alpha: float = 0.5
     update_tolerance: Optional[float] = 0.1
+    step_back_tolerance: Optional[float] = None
     replay: bool = True
     schedule: Schedule = Schedule.alternating
     codesign: bool = True
@@ -416,7 +421,8 @@ class LoopConfig(_Checked):
         self._positive_ints("episodes", "iterations", "snapshot_stride", "replay_capacity")
         self._positive_numbers("design_learning_rate")
         self._positive_numbers("gradient_clip", optional=("gradient_clip",))
-        self._positive_numbers("update_tolerance", zero=True, optional=("update_tolerance",))
+        self._positive_numbers("update_tolerance", "step_back_tolerance", zero=True,
+                               optional=("update_tolerance", "step_back_tolerance"))
         if not (_number(self.alpha) and 0 < self.alpha <= 1):
             self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
 

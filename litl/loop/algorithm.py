@@ -17,6 +17,11 @@ batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
 An iteration whose rollout blew up or lost particles, or whose loss or gradient is not finite, is
 skipped: parameters, optimizer states and the replay buffer stay as they were, and the metrics say
 why (`SKIP_REASONS`). Each seed also keeps the parameters of its best rollout so far (`Best`).
+
+Stepping back (`loop.step_back_tolerance`): an iteration whose task loss is worse than the last
+accepted iterate's (the `Anchor`) by more than the tolerance x |its loss| returns to that iterate
+and takes its step again at half the size (from its gradients and optimizer states, so no
+simulation is repeated), up to `MAX_STEP_BACKS` times in a row; the metrics say `stepped_back`.
 """
 
 from __future__ import annotations
@@ -67,6 +72,32 @@ class Best:
 
 
 @struct.dataclass
+class Anchor:
+    """The last accepted optimization iterate, for stepping back (`loop.step_back_tolerance`).
+
+    Attributes:
+      controller, design: θ, φ at that iterate.
+      controller_optimizer, design_optimizer: their Adam states before its step.
+      controller_grad, design_grad: the task-loss gradients there.
+      task_loss: () its task loss (+inf before the first healthy iteration).
+      step_scale: () the fraction of a full Adam step taken from it (halved at every step back).
+    """
+
+    controller: Any
+    design: jnp.ndarray
+    controller_optimizer: Any
+    design_optimizer: Any
+    controller_grad: Any
+    design_grad: jnp.ndarray
+    task_loss: jnp.ndarray
+    step_scale: jnp.ndarray
+
+
+# A step is halved at most this many times in a row; the next result is accepted whatever it is.
+MAX_STEP_BACKS = 3
+
+
+@struct.dataclass
 class LoopState:
     """Everything one seed's run carries from iteration to iteration (a pytree; vmappable).
 
@@ -81,6 +112,7 @@ class LoopState:
       key: (2,) uint32 raw PRNG key data (plain arrays checkpoint and compare bitwise).
       stats: `LearningStats` of the latest learning phase (NaN before the first).
       best: the `Best` parameters so far.
+      anchor: the last accepted iterate (`Anchor`), which a step back returns to.
       iteration: () int32 optimization iterations run so far (skipped ones included).
       consecutive_skips: () int32 iterations skipped in a row up to now.
     """
@@ -95,6 +127,7 @@ class LoopState:
     key: jnp.ndarray
     stats: LearningStats
     best: Best
+    anchor: Anchor
     iteration: jnp.ndarray
     consecutive_skips: jnp.ndarray
 
@@ -320,6 +353,13 @@ class _Pieces:
             stats=empty_stats(dtype, self.config.loop.learning.max_epochs, dim),
             best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
                       controller=controller_params, design=design, observer=observer_params),
+            anchor=Anchor(controller=controller_params, design=design,
+                          controller_optimizer=self.controller_adam.init(controller_params),
+                          design_optimizer=self.design_adam.init(design),
+                          controller_grad=jax.tree.map(jnp.zeros_like, controller_params),
+                          design_grad=jnp.zeros_like(design),
+                          task_loss=jnp.full((), jnp.inf, dtype),
+                          step_scale=jnp.ones((), dtype)),
             iteration=jnp.zeros((), jnp.int32),
             consecutive_skips=jnp.zeros((), jnp.int32),
         )
@@ -378,7 +418,8 @@ class _Pieces:
         best = keep_if(improved, Best(task_loss=total, step=state.iteration,
                                       controller=state.controller, design=state.design,
                                       observer=state.observer), state.best)
-        state = self.step_parameters(state, controller_grad, design_grad)
+        step_back = healthy & self.falls_back(state.anchor, total)
+        state = self.take_step(state, total, controller_grad, design_grad, step_back)
         snapshots = trajectory.snapshots
         keep = add if self.config.loop.replay else replace_with
         state = state.replace(buffer=keep(state.buffer, snapshots,
@@ -404,22 +445,57 @@ class _Pieces:
             "design_grad_norm": design_grad_norm,
             "skipped": reason,
             "consecutive_skips": state.consecutive_skips,
+            "stepped_back": step_back,
+            "step_scale": state.anchor.step_scale,
             "simultaneous_recon_loss": recon,
             "first_nonfinite_step": trajectory.health.first_nonfinite_step,
             "first_escape_step": trajectory.health.first_escape_step,
         }
         return state, metrics
 
-    def step_parameters(self, state: LoopState, controller_grad, design_grad) -> LoopState:
-        """Adam on θ, and on φ then its projection into the bounds (unless control only)."""
+    def falls_back(self, anchor: Anchor, total) -> jnp.ndarray:
+        """() bool: the rollout's task loss is worse than the anchor's by more than
+        `loop.step_back_tolerance` x |anchor's loss|, and the step may still be halved."""
+        tolerance = self.config.loop.step_back_tolerance
+        if tolerance is None:
+            return jnp.zeros((), bool)
+        limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
+        return (jnp.isfinite(anchor.task_loss) & (total > limit)
+                & (anchor.step_scale > 0.5**MAX_STEP_BACKS))
+
+    def take_step(self, state: LoopState, total, controller_grad, design_grad,
+                  step_back) -> LoopState:
+        """The iteration's parameter update. Normally a full Adam step from the current θ, φ,
+        which become the anchor; on a step back (`step_back`), the anchor's step again at half
+        its last size, from the anchor's parameters, gradients and optimizer states."""
+        anchor = state.anchor
+        accepted = Anchor(controller=state.controller, design=state.design,
+                          controller_optimizer=state.controller_optimizer,
+                          design_optimizer=state.design_optimizer,
+                          controller_grad=controller_grad, design_grad=design_grad,
+                          task_loss=total, step_scale=jnp.ones_like(anchor.step_scale))
+        retried = anchor.replace(step_scale=anchor.step_scale / 2)
+        anchor = keep_if(step_back, retried, accepted)
+        state = state.replace(controller=anchor.controller, design=anchor.design,
+                              controller_optimizer=anchor.controller_optimizer,
+                              design_optimizer=anchor.design_optimizer, anchor=anchor)
+        return self.step_parameters(state, anchor.controller_grad, anchor.design_grad,
+                                    anchor.step_scale)
+
+    def step_parameters(self, state: LoopState, controller_grad, design_grad,
+                        scale=1.0) -> LoopState:
+        """Adam on θ, and on φ then its projection into the bounds (unless control only); the
+        updates multiplied by `scale`."""
+        shrink = lambda updates: jax.tree.map(lambda u: u * scale, updates)
         updates, controller_optimizer = self.controller_adam.update(
             controller_grad, state.controller_optimizer, state.controller)
-        state = state.replace(controller=optax.apply_updates(state.controller, updates),
+        state = state.replace(controller=optax.apply_updates(state.controller, shrink(updates)),
                               controller_optimizer=controller_optimizer)
         if self.config.loop.codesign:
             updates, design_optimizer = self.design_adam.update(
                 design_grad, state.design_optimizer, state.design)
-            design = self.robot.design_space.project(optax.apply_updates(state.design, updates))
+            design = self.robot.design_space.project(
+                optax.apply_updates(state.design, shrink(updates)))
             state = state.replace(design=design, design_optimizer=design_optimizer)
         return state
 

@@ -97,3 +97,32 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"update_tolerance": None}))
     _, stats = unchecked.learn(state)
     assert bool(stats.update_accepted)
+
+
+def test_a_much_worse_iteration_steps_back_and_halves_the_step():
+    """loop.step_back_tolerance: the anchor's step is retaken at half the size (no simulation
+    repeated), at most three times in a row; then the next result is accepted."""
+    algorithm = make_algorithm(tiny_robot(), tiny_config(
+        observer={"kind": "kmeans"}, loop={"step_back_tolerance": 0.2}))
+    optimize = jax.jit(algorithm.optimize)
+    start = algorithm.init(0)
+    first, metrics = optimize(start)
+    assert not bool(metrics["stepped_back"]) and float(first.anchor.task_loss) == float(
+        metrics["task_loss"])
+    full_step = jax.tree.map(lambda a, b: a - b, first.controller, start.controller)
+    # Pretend the anchor had done far better: every result now counts as a fall.
+    state = first.replace(anchor=first.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
+    for halvings in (1, 2, 3):
+        state, metrics = optimize(state)
+        assert bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 0.5**halvings
+        expected = jax.tree.map(lambda a, u: a + u * 0.5**halvings, start.controller, full_step)
+        for got, want in zip(jax.tree.leaves(state.controller), jax.tree.leaves(expected)):
+            np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7)
+    state, metrics = optimize(state)                 # three halvings: accepted whatever it is
+    assert not bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 1.0
+    assert int(state.iteration) == 5
+    # Off (None, the default): never.
+    plain = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
+    _, metrics = jax.jit(plain.optimize)(plain.init(0).replace(
+        anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32))))
+    assert not bool(metrics["stepped_back"])
