@@ -134,7 +134,9 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
       the latest retraining minus after it plus one optimization step, so negative means
       retraining cost progress; on iteration 1 of episodes after a learning phase, else null),
       health steps, skipped (null, or why the iteration changed nothing: one of
-      `SKIP_REASONS`' values), consecutive_skips and wall_s.
+      `SKIP_REASONS`' values), consecutive_skips, stepped_back and step_scale (see
+      `litl.loop.algorithm`: whether the iteration went back to the last accepted iterate, and
+      the fraction of a full step taken), and wall_s.
     """
     # A logger that cannot be used fails before anything is built or any directory is made, so
     # the mistake leaves no empty run directory (nor a lock file) behind.
