@@ -121,8 +121,9 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     state, metrics = optimize(state)                 # three halvings: accepted whatever it is
     assert not bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 1.0
     assert int(state.iteration) == 5
-    # Off (None, the default): never.
-    plain = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
+    # Off (None, the paper's loop): never.
+    plain = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
+                                                     loop={"step_back_tolerance": None}))
     _, metrics = jax.jit(plain.optimize)(plain.init(0).replace(
         anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32))))
     assert not bool(metrics["stepped_back"])
