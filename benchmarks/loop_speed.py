@@ -14,7 +14,8 @@ window around the robot), all S seeds vmapped:
                      projection, snapshots into the buffer)
   episode_opt_s      iterations per episode x optimize_s: the optimization phase of an episode
   learn_s            median wall time of one whole learning phase (split, epochs with early
-                     stopping, statistics, target update) on the replay buffer the optimization
+                     stopping, statistics, target update and its check: two forward
+                     simulations, `loop.update_tolerance`) on the replay buffer the optimization
                      filled (full: 500 snapshots), for all S seeds
   learn_steps        SGD steps that phase took (the most over seeds)
   learn_share        learn_s / episode_opt_s (the issue's target: <= 1)
