@@ -6,7 +6,7 @@
 
 For each resolution and seed count S (each in its own process, so peak memory is that of S alone),
 with the VAE observer and the default `litl.config.Config` (10 iterations per episode; the learning phase
-of `litl.config.LearningConfig`: minibatch 8, Adam 3e-3, at most 400 SGD steps, patience 100 steps; a 0.5
+of `litl.config.LearningConfig`: minibatch 8, Adam 3e-3, at most 320 SGD steps, patience 100 steps; a 0.5
 window around the robot), all S seeds vmapped:
 
   optimize_s         median wall time of one optimization iteration (closed-loop rollout with the

@@ -349,7 +349,11 @@ class LearningConfig(_Checked):
         patience_steps is None).
       learning_rate: Adam step size (0 is allowed: nothing is learned).
       beta: weight of the KL term in the VAE loss.
-      max_steps: if set, also stop once this many SGD steps (minibatches) were taken.
+      max_steps: if set, also stop once this many SGD steps (minibatches) were taken. 320 (ten
+        epochs of a full buffer) keeps a phase cheaper than the episode's optimization for 10
+        vmapped seeds on CPU (`benchmarks/loop_speed.py`; 400 cost 1.13x); on
+        `experiment=biped_compare` (step-back tolerance 0.2) the VAE arm ended at 0.367 ± 0.028
+        (worst seed 0.297) with 320 and 0.382 ± 0.022 (0.309) with 400.
       patience_steps: if set, early stopping counts SGD steps instead of epochs: stop once the
         epochs since the best validation loss hold at least this many steps. An epoch is one
         minibatch while the buffer is small and many later, so a patience in epochs stops far too
@@ -362,7 +366,7 @@ class LearningConfig(_Checked):
     patience: int = 5
     learning_rate: float = 3e-3
     beta: float = 1.0
-    max_steps: Optional[int] = 400
+    max_steps: Optional[int] = 320
     patience_steps: Optional[int] = 100
 
     def check(self):
@@ -397,10 +401,13 @@ class LoopConfig(_Checked):
         and retakes its step at half the size (at most 3 halvings in a row; `stepped_back` in
         metrics.jsonl); no simulation is repeated. None: every step is kept (the paper's).
         Closed-loop controllers can lose their gait in one Adam step and not find it again;
-        measured on `experiment=biped_compare` (10 seeds, last-10 mean ± 90% CI, worst seed):
-        VAE 0.340 ± 0.056 (0.128) -> 0.382 ± 0.022 (0.309), k-means 0.293 ± 0.047 (0.156) ->
-        0.334 ± 0.034 (0.254), sinusoids 0.331 ± 0.024 (0.271) -> 0.340 ± 0.017 (0.300), with
-        16, 28 and 7 of each arm's 1000 iterations stepped back.
+        measured on `experiment=biped_compare` (10 seeds, last-10 mean ± 90% CI, worst seed),
+        off -> 0.2 (400 SGD steps per learning phase): VAE 0.340 ± 0.056 (0.128) -> 0.382 ±
+        0.022 (0.309), k-means 0.293 ± 0.047 (0.156) -> 0.334 ± 0.034 (0.254), sinusoids 0.331
+        ± 0.024 (0.271) -> 0.340 ± 0.017 (0.300); 0.2 -> 0.1 (320 steps): VAE 0.367 ± 0.028
+        (0.297) -> 0.371 ± 0.033 (0.301), k-means 0.334 -> 0.349 ± 0.027 (0.252), sinusoids
+        0.340 -> 0.336 ± 0.020 (0.285), with 59, 86 and 14 of each arm's 1000 iterations
+        stepped back at 0.1.
       replay: keep a replay buffer; False keeps only the latest rollout's snapshots.
       schedule: how learning alternates with optimization (`Schedule`).
       codesign: optimize the design φ with the controller; False: control only.
@@ -416,7 +423,7 @@ class LoopConfig(_Checked):
     replay_capacity: int = 500
     alpha: float = 0.5
     update_tolerance: Optional[float] = 0.1
-    step_back_tolerance: Optional[float] = 0.2
+    step_back_tolerance: Optional[float] = 0.1
     replay: bool = True
     schedule: Schedule = Schedule.alternating
     codesign: bool = True
