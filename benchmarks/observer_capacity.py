@@ -14,6 +14,11 @@ half, the fraction of the fields' energy explained (`recon_explained`: 1 - MSE /
 * the same PCA on the field average-pooled 2x and 4x per axis, and Gaussian-smoothed (sigma 1
   node): whether a coarser or smoother view of the motion is low-dimensional.
 
+and how well each code tells the robot's velocity (the particles' mean velocity the buffer keeps
+beside each snapshot): the held-out R² per axis of a linear readout fitted on the training half,
+from the run's observer's latents and from each PCA code of the field (`velocity_r2` of
+`LearningStats` is the same measure for the observer).
+
 Reading it: PCA with r components is the best any *linear* r-dimensional code can do; a
 convolutional VAE can beat it, but when PCA needs far more than r components to explain most of
 the energy, the field is not low-dimensional at that resolution and an r-latent autoencoder
@@ -31,7 +36,8 @@ import numpy as np
 
 
 def load_buffer(run_dir: pathlib.Path):
-    """(fields (n, *window, d), algorithm, observer params of seed 0) of a run directory."""
+    """(fields (n, *window, d), velocities (n, d), algorithm, observer params of seed 0) of a run
+    directory."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
     from gradient_horizon import state_of_run
     from litl.loop import make_algorithm
@@ -41,8 +47,10 @@ def load_buffer(run_dir: pathlib.Path):
     if not algorithm.observer.learned:
         raise SystemExit(f"{run_dir}: observer {config.observer.kind!r} does not learn from "
                          f"snapshots; give a run of a learned observer (vae, ae)")
-    fields = np.asarray(state.buffer.fields[: int(state.buffer.count)], np.float64)
-    return fields, algorithm, state.observer
+    count = int(state.buffer.count)
+    fields = np.asarray(state.buffer.fields[:count], np.float64)
+    return fields, np.asarray(state.buffer.velocities[:count], np.float64), algorithm, \
+        state.observer
 
 
 def explained_by_pca(fields, train, held_out, components) -> dict[int, float]:
@@ -56,6 +64,21 @@ def explained_by_pca(fields, train, held_out, components) -> dict[int, float]:
         reconstruction = flat[held_out] @ projector.T @ projector
         result[r] = float(1 - np.mean((reconstruction - flat[held_out]) ** 2) / signal)
     return result
+
+
+def velocity_readout_r2(codes, velocities, train, held_out) -> list[float]:
+    """Per axis, held-out R² of a least-squares readout [codes, 1] -> velocities fitted on train."""
+    design = np.c_[codes, np.ones(len(codes))]
+    weights = np.linalg.lstsq(design[train], velocities[train], rcond=None)[0]
+    residual = np.mean((design[held_out] @ weights - velocities[held_out]) ** 2, axis=0)
+    return [float(v) for v in 1 - residual / np.var(velocities[held_out], axis=0)]
+
+
+def pca_codes(fields, train, r: int):
+    """(n, r) codes of every field on the top r principal directions of the training half."""
+    flat = fields.reshape(len(fields), -1)
+    _, _, basis = np.linalg.svd(flat[train], full_matrices=False)
+    return flat @ basis[:r].T
 
 
 def pooled(fields, factor: int):
@@ -77,6 +100,14 @@ def explained_by_observer(algorithm, params, fields) -> float:
     return float(1 - jnp.mean((reconstruction - x) ** 2) / jnp.mean(x**2))
 
 
+def observer_codes(algorithm, params, fields) -> np.ndarray:
+    """(n, r) encoder means of the run's observer."""
+    import jax.numpy as jnp
+
+    x = jnp.asarray(fields, jnp.float32) / params.scale
+    return np.asarray(algorithm.model.apply(params.network, x, method="encode")[0], np.float64)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dir", type=pathlib.Path)
@@ -86,7 +117,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     from scipy.ndimage import gaussian_filter
 
-    fields, algorithm, params = load_buffer(args.run_dir)
+    fields, velocities, algorithm, params = load_buffer(args.run_dir)
     order = np.random.default_rng(args.seed).permutation(len(fields))
     train, held_out = order[: len(order) // 2], order[len(order) // 2:]
     spatial = fields.ndim - 2
@@ -101,6 +132,11 @@ def main(argv=None):
         "pca_explained_held_out": {view: explained_by_pca(data, train, held_out,
                                                           args.components)
                                    for view, data in views.items()},
+        "velocity_r2_held_out": {
+            "observer": velocity_readout_r2(observer_codes(algorithm, params, fields), velocities,
+                                            train, held_out),
+            **{f"pca r={r}": velocity_readout_r2(pca_codes(fields, train, r), velocities, train,
+                                                 held_out) for r in args.components}},
     }
     if args.json:
         print(json.dumps(result, indent=1))
@@ -113,6 +149,9 @@ def main(argv=None):
     print("  view                      " + "".join(f"r={r:<6}" for r in args.components))
     for view, by_rank in result["pca_explained_held_out"].items():
         print(f"  {view:<26}" + "".join(f"{by_rank[r]:<8.3f}" for r in args.components))
+    print("velocity readout, held-out R² per axis:")
+    for code, r2 in result["velocity_r2_held_out"].items():
+        print(f"  {code:<26}" + "  ".join(f"{v:.3f}" for v in r2))
 
 
 if __name__ == "__main__":
