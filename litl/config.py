@@ -358,6 +358,11 @@ class LearningConfig(_Checked):
         epochs since the best validation loss hold at least this many steps. An epoch is one
         minibatch while the buffer is small and many later, so a patience in epochs stops far too
         early at first (one Adam step) and far too late at the end.
+      momentum_weight: weight w of the (V)AE's momentum term: w x the squared error of a linear
+        head from the encoder means to the input field's mean over the window (in the
+        mass-weighted field, the robot's momentum per node; `vae.loss_terms`). It asks the latents
+        to carry the robot's bulk motion linearly, which the per-node loss hardly sees (the
+        biped's vertical momentum is under 1% of its field's energy). 0 is the paper's loss.
     """
 
     KEY = "loop.learning"
@@ -368,11 +373,12 @@ class LearningConfig(_Checked):
     beta: float = 1.0
     max_steps: Optional[int] = 320
     patience_steps: Optional[int] = 100
+    momentum_weight: float = 0.0
 
     def check(self):
         self._positive_ints("max_epochs", "batch_size", "patience", "max_steps", "patience_steps",
                             optional=("max_steps", "patience_steps"))
-        self._positive_numbers("learning_rate", "beta", zero=True)
+        self._positive_numbers("learning_rate", "beta", "momentum_weight", zero=True)
 
 
 @dataclass(frozen=True)

@@ -280,11 +280,14 @@ class LearningPhase:
     def losses(self, params, fields, key) -> dict:
         """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.loss_terms` each);
         key None: the encoder means, no sampling noise."""
-        model, beta = self.model, self.config.beta
+        config = self.config
+        weights = dict(beta=config.beta, momentum_weight=config.momentum_weight)
         if key is None:
-            return jax.vmap(lambda f: loss_terms(model, params, f[None], None, beta))(fields)
+            return jax.vmap(lambda f: loss_terms(self.model, params, f[None], None, **weights))(
+                fields)
         keys = jax.random.split(key, fields.shape[0])
-        return jax.vmap(lambda f, k: loss_terms(model, params, f[None], k, beta))(fields, keys)
+        return jax.vmap(lambda f, k: loss_terms(self.model, params, f[None], k, **weights))(
+            fields, keys)
 
     def masked_means(self, params, buffer, slots, mask, readout=None) -> dict:
         """Means over the masked slots (NaN if none), with the encoder means (no sampling noise).

@@ -125,7 +125,8 @@ def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> O
     adam = optax.adam(learning.learning_rate)
     learner = Learner(window=window, phase=make_learning_phase(model, learning,
                                                          report_epochs=config.output.progress),
-                      step=vae.make_train_step(model, adam, learning.beta),
+                      step=vae.make_train_step(model, adam, learning.beta,
+                                               learning.momentum_weight),
                       optimizer_init=lambda params: adam.init(params.network), model=model)
     return Observer(
         n_features=settings.latent_dim,

@@ -99,6 +99,8 @@ class ConvAutoencoder(nn.Module):
         coarse = tuple(n // 2**LEVELS for n in padded_shape(self.grid_shape))
         self.coarse_shape = coarse + (self.channels[-1],)
         self.from_latent = nn.Dense(int(np.prod(self.coarse_shape)))
+        # A linear head from the encoder means to the field's mean over the grid (`momentum`).
+        self.to_momentum = nn.Dense(self.dim)
         out_channels = list(self.channels[-2::-1]) + [self.dim]
         self.decoder_convs = [
             nn.ConvTranspose(c, window, strides, padding="SAME") for c in out_channels
@@ -125,9 +127,17 @@ class ConvAutoencoder(nn.Module):
         crop = (slice(None),) + tuple(slice(0, n) for n in self.grid_shape)
         return h[crop]
 
+    def momentum(self, mean):
+        """(B, r) encoder means -> (B, d) a linear estimate of the input field's mean over the
+        grid (in the mass-weighted field: the robot's momentum per node); trained only with
+        `loop.learning.momentum_weight` > 0."""
+        return self.to_momentum(mean)
+
     def __call__(self, field, key=None):
         """Reconstruct; with a key, a VAE samples z = mean + sigma * noise (else z = mean)."""
         mean, log_variance = self.encode(field)
+        if self.is_initializing():
+            self.momentum(mean)  # creates the head's parameters
         z = mean
         if self.variational and key is not None:
             z = mean + jnp.exp(0.5 * log_variance) * jax.random.normal(key, mean.shape, mean.dtype)
@@ -181,7 +191,8 @@ def make_observer(model: ConvAutoencoder, window: Window | None = None):
     return observe
 
 
-def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
+def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0,
+               momentum_weight=0.0):
     """`losses` plus what held-out evaluation needs from the same forward pass.
 
     Returns the dict of `losses` and: signal, the mean squared normalized input (the error of
@@ -190,15 +201,21 @@ def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=No
     x = fields / params.scale
     reconstruction, mean, log_variance = model.apply(params.network, x, key)
     recon = jnp.mean((reconstruction - x) ** 2)
+    fit = recon
+    if momentum_weight:
+        spatial = tuple(range(1, x.ndim - 1))
+        estimate = model.apply(params.network, mean, method="momentum")
+        fit = fit + momentum_weight * jnp.mean((estimate - jnp.mean(x, axis=spatial)) ** 2)
     if model.variational:
         kl = 0.5 * jnp.mean(jnp.sum(jnp.exp(log_variance) + mean**2 - 1.0 - log_variance, axis=-1))
     else:
         kl = jnp.zeros((), recon.dtype)
-    return {"recon": recon, "kl": kl, "total": recon + beta * kl / np.prod(x.shape[1:]),
+    return {"recon": recon, "kl": kl, "total": fit + beta * kl / np.prod(x.shape[1:]),
             "signal": jnp.mean(x**2), "code": mean}
 
 
-def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0):
+def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0,
+           momentum_weight=0.0):
     """Mean per-pixel squared reconstruction error, KL to N(0, I) per sample, and their total.
 
     total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
@@ -209,7 +226,7 @@ def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, 
       key: sampling key for the VAE (None: use the means, e.g. for validation).
       beta: weight of the KL term.
     """
-    terms = loss_terms(model, params, fields, key, beta)
+    terms = loss_terms(model, params, fields, key, beta, momentum_weight)
     return {name: terms[name] for name in ("recon", "kl", "total")}
 
 
@@ -239,7 +256,8 @@ def per_pixel_reconstruction_loss(model, params: AutoencoderParams, fields):
     return jnp.mean(jnp.linalg.norm(reconstruction - x, axis=-1)) * params.scale
 
 
-def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformation, beta=1.0):
+def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformation, beta=1.0,
+                    momentum_weight=0.0):
     """`step(params, opt_state, fields, key) -> (params, opt_state, losses)`: one Adam step.
 
     Pure and jittable; vmappable over seeds. Only the network is trained; the scale is kept.
@@ -247,7 +265,8 @@ def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformat
 
     def step(params: AutoencoderParams, opt_state, fields, key):
         def objective(network):
-            out = losses(model, params.replace(network=network), fields, key, beta)
+            out = losses(model, params.replace(network=network), fields, key, beta,
+                         momentum_weight)
             return out["total"], out
 
         grads, out = jax.grad(objective, has_aux=True)(params.network)
