@@ -363,6 +363,9 @@ class LearningConfig(_Checked):
         mass-weighted field, the robot's momentum per node; `vae.loss_terms`). It asks the latents
         to carry the robot's bulk motion linearly, which the per-node loss hardly sees (the
         biped's vertical momentum is under 1% of its field's energy). 0 is the paper's loss.
+        Measured on `experiment=biped_compare` (10 seeds, final learning phase): velocity R²
+        (x, y) medians 0.90, 0.78 at 0, 0.96, 0.95 at 0.3, 0.98, 0.95 at 1; recon_explained
+        0.82, 0.81, 0.78; distance 0.371, 0.377, 0.389 (README, "The momentum head").
     """
 
     KEY = "loop.learning"
@@ -373,7 +376,7 @@ class LearningConfig(_Checked):
     beta: float = 1.0
     max_steps: Optional[int] = 320
     patience_steps: Optional[int] = 100
-    momentum_weight: float = 0.0
+    momentum_weight: float = 0.3
 
     def check(self):
         self._positive_ints("max_epochs", "batch_size", "patience", "max_steps", "patience_steps",
