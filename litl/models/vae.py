@@ -225,6 +225,8 @@ def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, 
       fields: (B, *grid_shape, d) raw velocity fields (normalized here by `params.scale`).
       key: sampling key for the VAE (None: use the means, e.g. for validation).
       beta: weight of the KL term.
+      momentum_weight: w; adds w x the mean squared error of the linear head
+        (`ConvAutoencoder.momentum`) against the field's mean over the grid (0: the paper's loss).
     """
     terms = loss_terms(model, params, fields, key, beta, momentum_weight)
     return {name: terms[name] for name in ("recon", "kl", "total")}
