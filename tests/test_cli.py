@@ -105,6 +105,8 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
     ("controller.feature_scale=0", "^controller.feature_scale=0.0: must be a positive number"),
     ("loop.update_tolerance=-0.1", "^loop.update_tolerance=-0.1: must be a number >= 0, or null"),
     ("loop.learning.momentum_weight=-1", "^loop.learning.momentum_weight=-1.0: must be a number >= 0"),
+    ("loop.final_learning_rate_fraction=1.5",
+     "^loop.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
     ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
 ])

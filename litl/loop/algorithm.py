@@ -480,7 +480,18 @@ class _Pieces:
                               controller_optimizer=anchor.controller_optimizer,
                               design_optimizer=anchor.design_optimizer, anchor=anchor)
         return self.step_parameters(state, anchor.controller_grad, anchor.design_grad,
-                                    anchor.step_scale)
+                                    anchor.step_scale * self.step_size_factor(state.iteration))
+
+    def step_size_factor(self, iteration) -> jnp.ndarray:
+        """() the fraction of θ's and φ's configured Adam step sizes at this global iteration:
+        a cosine from 1 at the first to `loop.final_learning_rate_fraction` at the last of the
+        run's K x M iterations (constant 1 when that is 1, the paper's setting)."""
+        loop = self.config.loop
+        final = loop.final_learning_rate_fraction
+        total = loop.episodes * loop.iterations
+        progress = jnp.clip(jnp.asarray(iteration, self.dtype) / max(total - 1, 1), 0.0, 1.0)
+        return jnp.asarray(final + (1.0 - final) * 0.5 * (1.0 + jnp.cos(jnp.pi * progress)),
+                           self.dtype)
 
     def step_parameters(self, state: LoopState, controller_grad, design_grad,
                         scale=1.0) -> LoopState:

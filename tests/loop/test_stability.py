@@ -103,7 +103,9 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     """loop.step_back_tolerance: the anchor's step is retaken at half the size (no simulation
     repeated), at most three times in a row; then the next result is accepted."""
     algorithm = make_algorithm(tiny_robot(), tiny_config(
-        observer={"kind": "kmeans"}, loop={"step_back_tolerance": 0.2}))
+        observer={"kind": "kmeans"},
+        # constant step sizes: every retaken step is exactly half the last
+        loop={"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}))
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
     first, metrics = optimize(start)
@@ -127,3 +129,23 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     _, metrics = jax.jit(plain.optimize)(plain.init(0).replace(
         anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32))))
     assert not bool(metrics["stepped_back"])
+
+
+def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():
+    """loop.final_learning_rate_fraction: the same gradients move θ the full step at the first
+    iteration, the configured fraction of it at the run's last (K x M = 4 here), and the cosine's
+    value in between; optimizer states are those of the constant-step run."""
+    def step(fraction, iteration):
+        algorithm = make_algorithm(tiny_robot(), tiny_config(
+            observer={"kind": "kmeans"}, loop={"final_learning_rate_fraction": fraction}))
+        start = algorithm.init(0).replace(iteration=jnp.asarray(iteration, jnp.int32))
+        after, _ = jax.jit(algorithm.optimize)(start)
+        return jax.tree.map(lambda a, b: a - b, after.controller, start.controller), after
+
+    for iteration, factor in ((0, 1.0), (1, 0.25 + 0.75 * 0.75), (3, 0.25)):
+        constant, constant_state = step(1.0, iteration)
+        decayed, decayed_state = step(0.25, iteration)
+        assert _same(constant_state.controller_optimizer, decayed_state.controller_optimizer)
+        for got, full in zip(jax.tree.leaves(decayed), jax.tree.leaves(constant)):
+            assert np.abs(full).max() > 0
+            np.testing.assert_allclose(got, full * factor, rtol=1e-4, atol=1e-8)
