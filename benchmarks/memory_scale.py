@@ -15,8 +15,9 @@ one state per K steps plus the K of the segment being differentiated, at the pri
 forward pass: for K = 64 = sqrt(4096), 128 states, 1.3 GiB. `--compile-only` reports XLA's
 buffer plan without running (about 20 s of compilation per setting); for that case on XLA:CPU
 (2026-11-23) it plans 41,661 MiB of temporaries without segments and 1,485 MiB with K = 64. The
-run itself, which gives the measured peak, has not been made yet: at quadruped3d's rate it would
-take 10 to 20 minutes per setting on 2 CPU cores, and ~41 GiB of memory without segments.
+run with K = 64 (2-core CPU, 2026-11-24): peak_rss_mb 2275 (787 before the run), healthy, run_s
+2045 with the CPU shared with other runs for most of it; without segments (~41 GiB) it was not
+run on this 24 GB machine.
 
 Each setting runs in a fresh process (so that its peak is its own) and reports:
   peak_rss_mb         peak resident memory of the process (compilation included; JAX and XLA
