@@ -122,7 +122,6 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
         np.testing.assert_allclose(batched[i], single, rtol=1e-4, atol=1e-5)
 
 
-
 def test_momentum_term_is_the_linear_heads_error_on_the_field_mean():
     """total = recon + w * mean_c (head(mean) - mean over nodes of x)^2 + beta * KL / values; w = 0
     is the paper's loss."""
