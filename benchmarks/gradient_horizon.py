@@ -73,7 +73,7 @@ def measure(robot, config, state, horizons) -> list[dict]:
     for mode in ("full", "stop"):
         for steps in horizons:
             algorithm = make_algorithm(robot, config.replace(
-                sim={"steps": steps}, controller={"feature_gradient": mode}))
+                sim={"steps": steps}, controller={"mlp": {"feature_gradient": mode}}))
             _, metrics = jax.jit(algorithm.optimize)(state)
             rows.append({"observer": observer, "feature_gradient": mode, "steps": steps,
                          "controller_grad_norm": float(metrics["controller_grad_norm"]),

@@ -15,7 +15,7 @@ window around the robot), all S seeds vmapped:
   episode_opt_s      iterations per episode x optimize_s: the optimization phase of an episode
   learn_s            median wall time of one whole learning phase (split, epochs with early
                      stopping, statistics, target update and its check: two forward
-                     simulations, `loop.update_tolerance`) on the replay buffer the optimization
+                     simulations, `loop.safeguards.update_tolerance`) on the replay buffer the optimization
                      filled (full: 500 snapshots), for all S seeds
   learn_steps        SGD steps that phase took (the most over seeds)
   learn_share        learn_s / episode_opt_s (the issue's target: <= 1)
@@ -64,7 +64,7 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None) -> dict:
     optimize_compile = time.perf_counter() - start
     # Fill the buffer while timing: 500 / (steps / 20) iterations fill it completely.
     per_rollout = (config.sim.steps or robot.steps) // config.loop.snapshot_stride
-    fill = -(-config.loop.replay_capacity // per_rollout)
+    fill = -(-config.loop.buffer_capacity // per_rollout)
     times = []
     for _ in range(max(repeats, fill)):
         (state, _), seconds = _timed(optimize, state)

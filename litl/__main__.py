@@ -22,17 +22,10 @@ from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 from litl.app import run_experiment
-from litl.config import SettingsError, from_hydra, register_with_hydra
-from litl.loop.checkpoint import CheckpointError
+from litl.config import from_hydra, register_with_hydra, translate_overrides
+from litl.errors import UserError
 from litl.loop.progress import say, set_label
 from litl.loop.run import RunDirectoryError
-from litl.robots.catalog import UnknownRobotError
-from litl.robots.layout import LayoutError
-from litl.sim.config import ConfigError
-
-# Errors that are about the user's input, not about litl: printed as one message, no traceback.
-USER_ERRORS = (SettingsError, RunDirectoryError, CheckpointError,
-               UnknownRobotError, LayoutError, ConfigError)
 
 register_with_hydra()
 
@@ -51,7 +44,7 @@ def _main(cfg) -> None:
             # launch lines give each job number's overrides).
             set_label(f"[job {hydra_config.job.num}] ")
         run_experiment(from_hydra(cfg), hydra_config.runtime.output_dir, config_files)
-    except USER_ERRORS as error:
+    except UserError as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
         # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
         if not isinstance(error, RunDirectoryError):   # (that directory is another run's)
@@ -81,6 +74,10 @@ def _remove_if_unused(run_dir: pathlib.Path) -> None:
 
 
 def main() -> None:
+    # Keys that moved keep working, with a word on their new name (`litl.config.MOVED_KEYS`).
+    sys.argv[1:], messages = translate_overrides(sys.argv[1:])
+    for message in messages:
+        say(f"litl: warning: {message}")
     _main()
 
 

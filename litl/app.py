@@ -16,7 +16,7 @@ import pathlib
 
 import litl.robots
 from litl.config import RESOLUTIONS, Config, MaterialConfig, SettingsError, TaskKind, \
-    from_hydra, register_with_hydra
+    from_hydra, register_with_hydra, translate_overrides
 from litl.loop import run
 from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock
@@ -29,9 +29,14 @@ def compose(overrides: list[str] = ()) -> Config:
     from hydra import compose as hydra_compose
     from hydra import initialize_config_module
 
+    import warnings
+
     register_with_hydra()
+    overrides, messages = translate_overrides(overrides)
+    for message in messages:
+        warnings.warn(message, FutureWarning, stacklevel=2)
     with initialize_config_module("litl.conf", version_base="1.3"):
-        cfg = hydra_compose("config", overrides=list(overrides))
+        cfg = hydra_compose("config", overrides=overrides)
     return from_hydra(cfg)
 
 
@@ -85,8 +90,10 @@ def import_user_module(key: str, module: str | None, registers: str) -> None:
 
 def check_observer(config: Config) -> None:
     """Import `observer.module` (if any), then check that `observer.kind` is registered."""
+    from litl.loop import observers
+
     import_user_module("observer.module", config.observer.module, "litl.loop.observers.register")
-    config.check_observer_kind()
+    observers.check_kind(config)
 
 
 def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None = None):

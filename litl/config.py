@@ -26,8 +26,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
+from litl.errors import UserError
 
-class SettingsError(ValueError):
+
+class SettingsError(UserError, ValueError):
     """A setting litl cannot use; the message names its key (as typed on the command line) and
     says how to fix it.
 
@@ -54,7 +56,7 @@ class Schedule(enum.StrEnum):
 
 
 class TaskKind(enum.StrEnum):
-    default = "default"             # the robot's own task (see the README's robot table)
+    default = "default"             # the robot's own task (docs/guide/robots.md)
     locomotion = "locomotion"       # distance walked
     velocity = "velocity"           # mean forward velocity
 
@@ -87,6 +89,14 @@ class LoggerKind(enum.StrEnum):
     tensorboard = "tensorboard"     # event files in <run dir>/tensorboard/
     wandb = "wandb"                 # Weights & Biases, where the package is installed
     none = "none"
+
+
+class Method(enum.StrEnum):
+    """Which defaults a run starts from (`method=` on the command line, `Config.for_method`):
+    the paper's Algorithm 1 as described, or litl's (the paper's plus its measured additions).
+    The keys a method sets are in `litl/conf/method/<name>.yaml`."""
+    litl = "litl"
+    paper = "paper"
 
 
 class DType(enum.StrEnum):
@@ -159,7 +169,7 @@ class _Checked:
         """A copy with `changes`; a dict for a nested config changes only the keys it names:
         ``config.replace(loop={"episodes": 3}, seeds=2)``."""
         merged = {}
-        for name, value in changes.items():
+        for name, value in _moved_changes(self.KEY, changes).items():
             current = getattr(self, name)
             if isinstance(value, dict) and dataclasses.is_dataclass(current):
                 value = current.replace(**value)
@@ -167,10 +177,26 @@ class _Checked:
         return dataclasses.replace(self, **merged)
 
 
+def _moved_changes(section: str, changes: dict) -> dict:
+    """`changes` to the config at `section` with moved keys renamed (a warning each): at the
+    top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``."""
+    import warnings
+
+    prefix = f"{section}." if section else ""
+    flat = flatten(changes, prefix)
+    if not any(key in MOVED_KEYS for key in flat):
+        return changes
+    for key in flat:
+        if key in MOVED_KEYS:
+            warnings.warn(moved_message(key), FutureWarning, stacklevel=4)
+    return unflatten({MOVED_KEYS.get(key, key)[len(prefix):]: value
+                      for key, value in flat.items()})
+
+
 def _enum_of(annotation):
     text = str(annotation)
     for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, GridField, FeatureGradient,
-                 LoggerKind, DType):
+                 LoggerKind, Method, DType):
         if kind.__name__ in text:
             return kind
     return None
@@ -241,39 +267,30 @@ class TaskConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class ObserverConfig(_Checked):
-    """What the controller sees.
+class AutoencoderConfig(_Checked):
+    """The (V)AE observers' network and what it sees (`observer=vae` and `observer=ae`).
 
     Attributes:
-      kind: a registered observer (`litl.loop.observers`): vae (the method), ae (plain
-        autoencoder), kmeans (baseline), none (no features: open-loop control), or your own.
-      latent_dim: r, latent variables of the (V)AE.
-      window: side (domain units) of the grid window a (V)AE sees, centred on the robot's
-        particle centroid and rounded up to a multiple of 32 nodes (`litl.models.window`);
-        None: the whole grid, as in the paper. The replay buffer stores these windows.
+      latent_dim: r, latent variables (the controller's features).
+      window: side (domain units) of the grid window it sees, centred on the robot's particle
+        centroid and rounded up to a multiple of 32 nodes (`litl.models.window`); None: the
+        whole grid (the paper's).
       channels: widths of the five encoder convolutions.
-      activation: the (V)AE's activation (`Activation`).
-      field: what the (V)AE sees of the grid and the replay buffer stores (`GridField`): the
-        node velocities (the paper's), or the velocities weighted by the node's mass relative to
-        a full cell (`litl.sim.fields`), which fades the boundary's light nodes whose
-        momentum / mass is dominated by numerical noise.
-      clusters: k, clusters of the k-means observer.
-      module: a module to import first, which registers observers of your own
-        (`litl.loop.observers.register`); then kind=<its name>.
+      activation: the network's activation (`Activation`; the paper's: relu).
+      field: what it sees of the grid and the replay buffer stores (`GridField`): node
+        velocities (the paper's), or velocities weighted by the node's mass relative to a full
+        cell, which fades the light boundary nodes whose velocity is mostly numerical noise.
     """
 
-    KEY = "observer"
-    kind: str = "vae"
+    KEY = "observer.vae"
     latent_dim: int = 8
     window: Optional[float] = 0.5
     channels: Tuple[int, ...] = (8, 16, 32, 32, 64)
     activation: Activation = Activation.elu
     field: GridField = GridField.mass_weighted
-    clusters: int = 6
-    module: Optional[str] = None
 
     def check(self):
-        self._positive_ints("latent_dim", "clusters")
+        self._positive_ints("latent_dim")
         self._positive_numbers("window", optional=("window",))
         if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1
                                               for c in self.channels):
@@ -281,49 +298,98 @@ class ObserverConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class ControllerConfig(_Checked):
-    """The controller θ and its optimizer.
+class KMeansConfig(_Checked):
+    """The k-means baseline (`observer=kmeans`). Attributes: clusters, k clusters of the rest
+    shape (features: each cluster's mean position and velocity)."""
+
+    KEY = "observer.kmeans"
+    clusters: int = 6
+
+    def check(self):
+        self._positive_ints("clusters")
+
+
+@dataclass(frozen=True)
+class ObserverConfig(_Checked):
+    """What the controller sees. Each observer reads its own section (`vae` for vae and ae,
+    `kmeans`), so two runs differ in their observer exactly when that section differs.
 
     Attributes:
-      kind: mlp (closed loop: an MLP of the observer's features) or sinusoid (the open-loop
-        baseline `litl.models.open_loop.SinusoidController`; needs observer none).
-      widths: hidden layers of the MLP.
-      omega: angular frequency (rad/s) of the sinusoid controller.
-      period: the MLP also sees (sin, cos) of a clock of this period (s), as DiffTaichi's
-        closed-loop walkers see sine waves beside the state; None: features only (the paper's
-        controller as described). The default, 2π/30 s, is the sinusoid baseline's frequency.
-        Measured on `experiment=biped_compare` (5 seeds, mean of each seed's last 10
-        iterations): the clock lifts the VAE arm from 0.200 to 0.307 and k-means from 0.224 to
-        0.361 (README, "The biped comparison").
-      learning_rate: Adam step size of θ.
-      feature_gradient: stop treats the observer's features as constants in the task-loss
-        gradient (it reaches θ through the actuation's effect on the motion only); full also
-        differentiates the features w.r.t. the simulated grid (the paper's end-to-end
-        backpropagation), which explodes with the horizon (`benchmarks/gradient_horizon.py`).
-      feature_scale: the features are multiplied by this before they enter the MLP (an input
-        gain: with Adam, how fast the features' pathway grows against the clock's). The VAE's
-        latents vary with a standard deviation near 1 along a rollout, k-means' positions and
-        velocities near 0.2; at gain 1 the trained controllers read the VAE's latents with 3x the
-        gain and produce 2-4x rougher actuation. Measured on `experiment=biped_compare` (5 seeds,
-        distance averaged over all 100 iterations / over each seed's last 10): VAE 0.212 / 0.239
-        at gain 1, 0.291 / 0.315 at 0.2; k-means 0.283 / 0.333 at both (README, "The biped
-        comparison").
+      kind: a registered observer (`litl.loop.observers`): vae (the method), ae (plain
+        autoencoder), kmeans (baseline), none (no features: open-loop control), or your own.
+      module: a module to import first, which registers observers of your own
+        (`litl.loop.observers.register`); then kind=<its name>.
+      vae: settings of the (V)AE observers (`AutoencoderConfig`).
+      kmeans: settings of the k-means observer (`KMeansConfig`).
     """
 
-    KEY = "controller"
-    kind: ControllerKind = ControllerKind.mlp
+    KEY = "observer"
+    kind: str = "vae"
+    module: Optional[str] = None
+    vae: AutoencoderConfig = field(default_factory=AutoencoderConfig)
+    kmeans: KMeansConfig = field(default_factory=KMeansConfig)
+
+
+@dataclass(frozen=True)
+class MLPConfig(_Checked):
+    """The closed-loop MLP controller (`controller=mlp`).
+
+    Attributes:
+      widths: hidden layers.
+      period: the MLP also reads (sin, cos) of a clock of this period (s), as DiffTaichi's
+        closed-loop walkers read sine waves beside the state; None: features only (the
+        paper's). litl's default is the sinusoid baseline's 30 rad/s.
+      feature_scale: an input gain on the observer's features (1: the paper's); how fast, under
+        Adam, the features' pathway grows against the clock's.
+      feature_gradient: whether the task-loss gradient also flows through the features into the
+        simulated grid (`FeatureGradient`; full is the paper's end-to-end backpropagation).
+    """
+
+    KEY = "controller.mlp"
     widths: Tuple[int, ...] = (64, 64)
-    omega: float = 30.0
     period: Optional[float] = CLOCK_PERIOD
-    learning_rate: float = 0.01
-    feature_gradient: FeatureGradient = FeatureGradient.stop
     feature_scale: float = FEATURE_SCALE
+    feature_gradient: FeatureGradient = FeatureGradient.stop
 
     def check(self):
         if not all(isinstance(w, int) and w >= 1 for w in self.widths):
             self._invalid("widths", "every width must be a positive integer")
-        self._positive_numbers("omega", "learning_rate", "feature_scale")
+        self._positive_numbers("feature_scale")
         self._positive_numbers("period", optional=("period",))
+
+
+@dataclass(frozen=True)
+class SinusoidConfig(_Checked):
+    """The open-loop baseline (`controller=sinusoid`, `litl.models.open_loop`). Attributes:
+    omega, the sinusoids' angular frequency (rad/s)."""
+
+    KEY = "controller.sinusoid"
+    omega: float = 30.0
+
+    def check(self):
+        self._positive_numbers("omega")
+
+
+@dataclass(frozen=True)
+class ControllerConfig(_Checked):
+    """The controller θ and its optimizer.
+
+    Attributes:
+      kind: mlp (closed loop on the observer's features) or sinusoid (open loop; needs observer
+        none).
+      learning_rate: Adam step size of θ.
+      mlp: settings of the MLP (`MLPConfig`).
+      sinusoid: settings of the sinusoid baseline (`SinusoidConfig`).
+    """
+
+    KEY = "controller"
+    kind: ControllerKind = ControllerKind.mlp
+    learning_rate: float = 0.01
+    mlp: MLPConfig = field(default_factory=MLPConfig)
+    sinusoid: SinusoidConfig = field(default_factory=SinusoidConfig)
+
+    def check(self):
+        self._positive_numbers("learning_rate")
 
 
 @dataclass(frozen=True)
@@ -349,23 +415,14 @@ class LearningConfig(_Checked):
         patience_steps is None).
       learning_rate: Adam step size (0 is allowed: nothing is learned).
       beta: weight of the KL term in the VAE loss.
-      max_steps: if set, also stop once this many SGD steps (minibatches) were taken. 320 (ten
-        epochs of a full buffer) keeps a phase cheaper than the episode's optimization for 10
-        vmapped seeds on CPU (`benchmarks/loop_speed.py`; 400 cost 1.13x); on
-        `experiment=biped_compare` (step-back tolerance 0.2) the VAE arm ended at 0.367 ± 0.028
-        (worst seed 0.297) with 320 and 0.382 ± 0.022 (0.309) with 400.
-      patience_steps: if set, early stopping counts SGD steps instead of epochs: stop once the
-        epochs since the best validation loss hold at least this many steps. An epoch is one
-        minibatch while the buffer is small and many later, so a patience in epochs stops far too
-        early at first (one Adam step) and far too late at the end.
-      momentum_weight: weight w of the (V)AE's momentum term: w x the squared error of a linear
-        head from the encoder means to the input field's mean over the window (in the
-        mass-weighted field, the robot's momentum per node; `vae.loss_terms`). It asks the latents
-        to carry the robot's bulk motion linearly, which the per-node loss hardly sees (the
-        biped's vertical momentum is under 1% of its field's energy). 0 is the paper's loss.
-        Measured on `experiment=biped_compare` (10 seeds, final learning phase): velocity R²
-        (x, y) medians 0.90, 0.78 at 0, 0.96, 0.95 at 0.3, 0.98, 0.95 at 1; recon_explained
-        0.82, 0.81, 0.78; distance 0.371, 0.377, 0.389 (README, "The momentum head").
+      max_steps: if set, also stop after this many SGD steps (minibatches); None: epochs only
+        (the paper's). Bounds a phase's cost as the buffer grows.
+      patience_steps: if set, early stopping counts SGD steps instead of epochs (stop once the
+        epochs since the best validation loss hold this many steps); None: `patience` epochs
+        (the paper's). An epoch is one minibatch early in a run and many later.
+      momentum_weight: weight of a linear head from the encoder means to the field's mean over
+        the window (the robot's momentum), trained with the reconstruction (`vae.loss_terms`),
+        so the latents carry the bulk motion linearly; 0: the paper's loss.
     """
 
     KEY = "loop.learning"
@@ -385,51 +442,59 @@ class LearningConfig(_Checked):
 
 
 @dataclass(frozen=True)
+class SafeguardsConfig(_Checked):
+    """litl's additions to Algorithm 1 that keep an optimization from losing what it found; the
+    paper has none of them (`method=paper`: null, null, null, 1). Measured in the docs' results.
+
+    Attributes:
+      gradient_clip: clip θ's and φ's gradients to this global norm before Adam (None: off); a
+        spike from a long closed-loop rollout would otherwise swamp Adam's second moments.
+      update_tolerance: after each learning phase (not the bootstrap) Θ takes its target step
+        only if the current controller and design, simulated once with the stepped observer,
+        do at most this fraction of |loss| worse than before (two forward simulations;
+        `update_accepted` in learning.jsonl); None: always step.
+      step_back_tolerance: an iteration whose task loss is worse than the last accepted
+        iterate's by more than this fraction of |its loss| returns to that iterate and retakes
+        its step at half the size (at most 3 halvings in a row; `stepped_back` in
+        metrics.jsonl); None: every step is kept.
+      final_learning_rate_fraction: θ's and φ's Adam steps follow a cosine over the run's K x M
+        iterations down to this fraction at the last (1: constant). It scales Adam's update, so
+        optimizer states and checkpoints are the same for every value.
+    """
+
+    KEY = "loop.safeguards"
+    gradient_clip: Optional[float] = 1.0
+    update_tolerance: Optional[float] = 0.1
+    step_back_tolerance: Optional[float] = 0.1
+    final_learning_rate_fraction: float = 0.1
+
+    def check(self):
+        self._positive_numbers("gradient_clip", optional=("gradient_clip",))
+        self._positive_numbers("update_tolerance", "step_back_tolerance", zero=True,
+                               optional=("update_tolerance", "step_back_tolerance"))
+        if not (_number(self.final_learning_rate_fraction)
+                and 0 <= self.final_learning_rate_fraction <= 1):
+            self._invalid("final_learning_rate_fraction",
+                          "must lie in [0, 1] (1 = constant step sizes)")
+
+
+@dataclass(frozen=True)
 class LoopConfig(_Checked):
-    """Algorithm 1's loop: K episodes of M iterations, the replay buffer, the ablation switches.
+    """Algorithm 1's loop: K episodes, each M optimization iterations (one simulation with
+    backpropagation each) followed by a learning phase; the replay buffer; the ablation switches.
 
     Attributes:
       episodes: K, alternations of optimization and learning.
-      iterations: M, optimization iterations (simulations with backpropagation) per episode.
+      iterations: M, optimization iterations per episode.
       design_learning_rate: Adam step size of the design variables φ (Young's modulus per region).
-      gradient_clip: clip θ's and φ's gradients to this global norm before Adam (None: off).
-        Gradients through long closed-loop rollouts can spike by orders of magnitude; a spike
-        would otherwise swamp Adam's second-moment estimate for many steps.
-      snapshot_stride: record the grid velocity every this many steps.
-      replay_capacity: B, snapshots kept in the replay buffer (a ring buffer).
+      snapshot_stride: record the grid velocity every this many simulation steps.
+      buffer_capacity: B, snapshots kept in the replay buffer (a ring buffer).
       alpha: target step Θ ← α·Θ′ + (1 − α)·Θ after each learning phase (1: no smoothing).
-      update_tolerance: after each learning phase (not the bootstrap) Θ takes the target step only
-        if the current controller and design, simulated once with the stepped observer, reach a
-        task loss at most this fraction of |loss| worse than with the observer before it; else
-        Θ is kept for the next episode (`update_accepted` false in learning.jsonl). Costs two
-        forward simulations per phase. None: always step (the paper's Algorithm 1). A retrained
-        observer moves the controller's inputs; measured on `experiment=biped_compare` (10
-        seeds), unchecked steps threw two seeds from 0.26-0.33 to 0.09-0.11 in the last episode.
-      step_back_tolerance: an optimization iteration whose task loss is worse than the last
-        accepted iterate's by more than this fraction of |its loss| goes back to that iterate
-        and retakes its step at half the size (at most 3 halvings in a row; `stepped_back` in
-        metrics.jsonl); no simulation is repeated. None: every step is kept (the paper's).
-        Closed-loop controllers can lose their gait in one Adam step and not find it again;
-        measured on `experiment=biped_compare` (10 seeds, last-10 mean ± 90% CI, worst seed),
-        off -> 0.2 (400 SGD steps per learning phase): VAE 0.340 ± 0.056 (0.128) -> 0.382 ±
-        0.022 (0.309), k-means 0.293 ± 0.047 (0.156) -> 0.334 ± 0.034 (0.254), sinusoids 0.331
-        ± 0.024 (0.271) -> 0.340 ± 0.017 (0.300); 0.2 -> 0.1 (320 steps): VAE 0.367 ± 0.028
-        (0.297) -> 0.371 ± 0.033 (0.301), k-means 0.334 -> 0.349 ± 0.027 (0.252), sinusoids
-        0.340 -> 0.336 ± 0.020 (0.285), with 59, 86 and 14 of each arm's 1000 iterations
-        stepped back at 0.1.
-      final_learning_rate_fraction: θ's and φ's Adam step sizes (controller.learning_rate,
-        loop.design_learning_rate) follow a cosine over the run's K x M iterations, from their
-        configured values at the first to this fraction of them at the last (1: constant, the
-        paper's). It multiplies Adam's update, so the optimizer states, and checkpoints, are the
-        same for every value. Late in a run, full steps kept throwing walking seeds back (seeds
-        that reached 0.30 ended near 0.25, stepping back again and again); measured on
-        `experiment=biped_compare` (10 seeds, last-10 mean ± 90% CI, worst seed), 1 -> 0.1:
-        VAE 0.377 ± 0.036 (0.250) -> 0.381 ± 0.022 (0.324), k-means 0.349 ± 0.027 (0.252) ->
-        0.362 ± 0.018 (0.301), sinusoids 0.336 ± 0.020 (0.285) -> 0.331 ± 0.014 (0.280); steps
-        back 87 -> 53, 86 -> 39, 14 -> 11 of each arm's 1000 iterations.
-      replay: keep a replay buffer; False keeps only the latest rollout's snapshots.
+      replay_buffer: keep a replay buffer; False keeps only the latest rollout's snapshots (the
+        no-replay ablation).
       schedule: how learning alternates with optimization (`Schedule`).
       codesign: optimize the design φ with the controller; False: control only.
+      safeguards: litl's stabilizers of the optimization (`SafeguardsConfig`).
       learning: the learning phase (`LearningConfig`).
     """
 
@@ -437,30 +502,20 @@ class LoopConfig(_Checked):
     episodes: int = 10
     iterations: int = 10
     design_learning_rate: float = 0.5
-    gradient_clip: Optional[float] = 1.0
     snapshot_stride: int = 20
-    replay_capacity: int = 500
+    buffer_capacity: int = 500
     alpha: float = 0.5
-    update_tolerance: Optional[float] = 0.1
-    step_back_tolerance: Optional[float] = 0.1
-    final_learning_rate_fraction: float = 0.1
-    replay: bool = True
+    replay_buffer: bool = True
     schedule: Schedule = Schedule.alternating
     codesign: bool = True
+    safeguards: SafeguardsConfig = field(default_factory=SafeguardsConfig)
     learning: LearningConfig = field(default_factory=LearningConfig)
 
     def check(self):
-        self._positive_ints("episodes", "iterations", "snapshot_stride", "replay_capacity")
+        self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
         self._positive_numbers("design_learning_rate")
-        self._positive_numbers("gradient_clip", optional=("gradient_clip",))
-        self._positive_numbers("update_tolerance", "step_back_tolerance", zero=True,
-                               optional=("update_tolerance", "step_back_tolerance"))
         if not (_number(self.alpha) and 0 < self.alpha <= 1):
             self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
-        if not (_number(self.final_learning_rate_fraction)
-                and 0 <= self.final_learning_rate_fraction <= 1):
-            self._invalid("final_learning_rate_fraction",
-                          "must lie in [0, 1] (1 = constant step sizes)")
 
 
 @dataclass(frozen=True)
@@ -497,10 +552,13 @@ class Config(_Checked):
     experiment and output what it records and draws.
 
     Attributes:
+      method: the method the settings started from (`Method`: `method=paper|litl`, or
+        `Config.for_method`); later changes to single keys win. Reports name it.
       seeds: S, independent runs batched with `jax.vmap` (the paper uses 10).
       seed: base seed; the runs use seed, seed + 1, ..., seed + S - 1.
     """
 
+    method: Method = Method.litl
     robot: RobotConfig = field(default_factory=RobotConfig)
     task: TaskConfig = field(default_factory=TaskConfig)
     observer: ObserverConfig = field(default_factory=ObserverConfig)
@@ -522,24 +580,106 @@ class Config(_Checked):
                 f"reads no observer; set observer none (controller=sinusoid on the command line "
                 f"does so)", "observer.kind")
 
-    def check_observer_kind(self) -> None:
-        """`observer.kind` names a registered observer (imports the registry, hence JAX)."""
-        from litl.loop import observers
-
-        if self.observer.kind not in observers.names():
-            hint = (f"; observer.module={self.observer.module!r} registered no observer of that "
-                    f"name" if self.observer.module else
-                    "; an observer of your own: observer.kind=<name> observer.module=<module "
-                    "that registers it>")
-            raise SettingsError(f"observer.kind={self.observer.kind!r}: unknown observer; choose "
-                                f"one of {list(observers.names())}{hint}", "observer.kind")
+    @classmethod
+    def for_method(cls, method: str | Method) -> "Config":
+        """The defaults of `method` (``"paper"`` or ``"litl"``), as `method=<name>` on the
+        command line gives them: ``Config.for_method("paper").replace(seeds=10)``."""
+        return cls().replace(**method_changes(method))
 
     def run_settings(self) -> dict:
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
-        match them): observer, controller, sim, loop, seeds, seed."""
-        tree = dataclasses.asdict(self)
-        return {name: tree[name] for name in ("observer", "controller", "sim", "loop", "seeds",
-                                              "seed")}
+        match them): method, observer, controller, sim, loop, seeds, seed."""
+        tree = json_safe(dataclasses.asdict(self))
+        return {name: tree[name] for name in ("method", "observer", "controller", "sim", "loop",
+                                              "seeds", "seed")}
+
+
+def json_safe(tree):
+    """Enums as their values, tuples as lists: the tree as `json.dumps` / YAML write it."""
+    if isinstance(tree, dict):
+        return {key: json_safe(value) for key, value in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return [json_safe(value) for value in tree]
+    return tree.value if isinstance(tree, enum.Enum) else tree
+
+
+def method_changes(method: str | Method) -> dict:
+    """The nested changes `method` makes to `Config()` (read from litl/conf/method/<name>.yaml,
+    the files the command line's `method=` group uses)."""
+    import yaml
+    from importlib import resources
+
+    try:
+        method = Method(method)
+    except ValueError:
+        raise SettingsError(f"method={method!r}: choose one of {[m.value for m in Method]}",
+                            "method") from None
+    text = (resources.files("litl.conf") / "method" / f"{method.value}.yaml").read_text()
+    return yaml.safe_load(text) or {}
+
+
+# Keys that moved, by their old dotted name. The old spellings are still accepted, with a
+# warning, on the command line (`translate_overrides`), in `Config.replace` and in older
+# run.json files (`upgrade`).
+MOVED_KEYS = {
+    "observer.latent_dim": "observer.vae.latent_dim",
+    "observer.window": "observer.vae.window",
+    "observer.channels": "observer.vae.channels",
+    "observer.activation": "observer.vae.activation",
+    "observer.field": "observer.vae.field",
+    "observer.clusters": "observer.kmeans.clusters",
+    "controller.widths": "controller.mlp.widths",
+    "controller.period": "controller.mlp.period",
+    "controller.feature_scale": "controller.mlp.feature_scale",
+    "controller.feature_gradient": "controller.mlp.feature_gradient",
+    "controller.omega": "controller.sinusoid.omega",
+    "loop.gradient_clip": "loop.safeguards.gradient_clip",
+    "loop.update_tolerance": "loop.safeguards.update_tolerance",
+    "loop.step_back_tolerance": "loop.safeguards.step_back_tolerance",
+    "loop.final_learning_rate_fraction": "loop.safeguards.final_learning_rate_fraction",
+    "loop.replay": "loop.replay_buffer",
+    "loop.replay_capacity": "loop.buffer_capacity",
+}
+
+
+def moved_message(old: str) -> str:
+    return (f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will "
+            f"not for ever")
+
+
+def translate_overrides(overrides) -> tuple[list[str], list[str]]:
+    """Command-line overrides with moved keys renamed (`MOVED_KEYS`), and a message for each:
+    ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``."""
+    translated, messages = [], []
+    for override in overrides:
+        prefix = override[:1] if override[:1] in "+~" else ""
+        key, equals, value = override[len(prefix):].partition("=")
+        if key in MOVED_KEYS:
+            messages.append(moved_message(key))
+            override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
+        translated.append(override)
+    return translated, messages
+
+
+def upgrade(tree: dict) -> dict:
+    """A run's nested settings (`run.json`'s "config") with moved keys renamed; a run recorded
+    before methods were named started from litl's."""
+    flat = flatten(tree)
+    flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
+    flat.setdefault("method", Method.litl.value)
+    return unflatten(flat)
+
+
+def unflatten(flat: dict) -> dict:
+    """The nested dict of a dotted-key dict (`flatten`'s inverse)."""
+    tree: dict = {}
+    for key, value in flat.items():
+        *parents, leaf = key.split(".")
+        node = tree
+        for parent in parents:
+            node = node.setdefault(parent, {})
+        node[leaf] = value
+    return tree
 
 
 def from_dict(kind, values: dict):
@@ -569,8 +709,9 @@ def flatten(tree: dict, prefix: str = "") -> dict:
 
 
 def _dataclass_of(annotation):
-    for kind in (RobotConfig, MaterialConfig, TaskConfig, ObserverConfig, ControllerConfig, SimSettings,
-                 LoopConfig, LearningConfig, ExperimentConfig, OutputConfig):
+    for kind in (RobotConfig, MaterialConfig, TaskConfig, ObserverConfig, AutoencoderConfig,
+                 KMeansConfig, ControllerConfig, MLPConfig, SinusoidConfig, SimSettings,
+                 LoopConfig, SafeguardsConfig, LearningConfig, ExperimentConfig, OutputConfig):
         if str(annotation) == kind.__name__:
             return kind
     return None

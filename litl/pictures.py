@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 
 from litl.loop import make_algorithm, seed_slice  # noqa: E402
 from litl.loop.progress import say  # noqa: E402
-from litl.loop.replay import newest  # noqa: E402
+from litl.loop.replay_buffer import newest  # noqa: E402
 from litl.models.kmeans import KMeansObserver  # noqa: E402
 from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402

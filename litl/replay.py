@@ -23,10 +23,11 @@ import json
 import pathlib
 import sys
 
-from litl.config import Config, SettingsError, from_dict
+from litl.config import Config, from_dict, upgrade
+from litl.errors import UserError
 
 
-class ReplayError(ValueError):
+class ReplayError(UserError, ValueError):
     """The run directory cannot be replayed; the message says why and what to do."""
 
 
@@ -48,13 +49,13 @@ def load_run_config(run_dir: pathlib.Path):
         from omegaconf import OmegaConf
 
         plain = OmegaConf.to_container(OmegaConf.load(hydra_config), resolve=True)
-        config = from_dict(Config, plain)
+        config = from_dict(Config, upgrade(plain))
         robot = build_robot(config)
     else:                            # a Python API run: the robot by name, dx and material
         import litl.robots
         from litl.robots import Material
 
-        config = from_dict(Config, saved["config"])
+        config = from_dict(Config, upgrade(saved["config"]))
         robot = litl.robots.get(saved["robot"], dx=saved["dx"])
         material = Material(**saved.get("material", {}))
         if material != robot.material:
@@ -198,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run_dir", type=pathlib.Path, help="a finished run's directory")
     parser.add_argument("--seed", type=int, default=None, help="which seed (default: the first)")
     parser.add_argument("--steps", type=int, default=None,
-                        help="simulation steps (default: the run's own episode)")
+                        help="simulation steps (default: the run's own rollout length)")
     parser.add_argument("--out", type=pathlib.Path, default=None,
                         help="animation file, .gif or .mp4 (default: RUN_DIR/replay/seed<N>.gif)")
     parser.add_argument("--which", choices=("final", "best"), default="final",
@@ -207,13 +208,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="colour particles by actuation or by the learned Young's modulus")
     parser.add_argument("--stride", type=int, default=10, help="simulation steps per frame")
     args = parser.parse_args(argv)
-    from litl.__main__ import USER_ERRORS
-    from litl.viz import VizError
-
     try:
         summary = replay(args.run_dir, args.seed, args.steps, args.out, args.which, args.color,
                          args.stride)
-    except (ReplayError, VizError, SettingsError, *USER_ERRORS) as error:
+    except UserError as error:
         print(f"litl.replay: error: {error}", file=sys.stderr)
         return 2
     recorded = summary["recorded_loss"]

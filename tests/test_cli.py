@@ -72,6 +72,28 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     assert (run_dir / "replay" / "seed1.gif").stat().st_size > 1000
 
 
+@pytest.mark.slow
+def test_the_papers_method_runs_alone_and_in_a_preset(tmp_path):
+    """`method=paper` (the whole grid, ReLU, plain velocities, features only, full gradient, no
+    safeguards) runs end to end, pictures included, and so does a paper preset with it."""
+    done = litl_command(["method=paper", "+scale=smoke", "output.progress=false"], tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    preset = litl_command(["experiment=fig4b_biped", "method=paper", "+scale=smoke", *QUIET],
+                          tmp_path)
+    assert preset.returncode == 0, preset.stderr[-3000:]
+    demo, fig4b = run_dirs(tmp_path / "outputs")
+    assert fig4b.relative_to(tmp_path).parts[:2] == ("outputs", "fig4b_biped")
+    for run_dir, seeds in ((demo, 1), (fig4b, 10)):
+        recorded = json.loads((run_dir / "run.json").read_text())
+        assert recorded["config"]["method"] == "paper"
+        assert recorded["config"]["observer"]["vae"]["window"] is None
+        records = [json.loads(line) for line in
+                   (run_dir / "metrics.jsonl").read_text().splitlines()]
+        assert len(records) == 2 * 2 * seeds
+        assert all(r["task_loss"] is not None for r in records)
+    assert (demo / "snapshots.png").stat().st_size > 0
+
+
 @pytest.mark.parametrize("override, message", [
     ("loop.episods=3", "Key 'episods' not in 'LoopConfig'"),
     ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
@@ -85,7 +107,8 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
     ("robot.dx=0.03", "must divide the domain"),
     ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
-    ("observer.field=speed", "Invalid value 'speed', expected one of \\[velocity, mass_weighted\\]"),
+    ("observer.vae.field=speed", "Invalid value 'speed', expected one of \\[velocity, mass_weighted\\]"),
+    ("method=papr", "Could not find 'method/papr'"),
     ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
     ("experiment=fig9", "Could not find 'experiment/fig9'"),
 ])
@@ -100,15 +123,18 @@ def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, messag
 
 
 @pytest.mark.parametrize("override, message", [
-    ("observer.latent_dim=0", "^observer.latent_dim=0: must be a positive integer"),
+    ("observer.vae.latent_dim=0", "^observer.vae.latent_dim=0: must be a positive integer"),
     ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
-    ("controller.feature_scale=0", "^controller.feature_scale=0.0: must be a positive number"),
-    ("loop.update_tolerance=-0.1", "^loop.update_tolerance=-0.1: must be a number >= 0, or null"),
+    ("controller.mlp.feature_scale=0",
+     "^controller.mlp.feature_scale=0.0: must be a positive number"),
+    ("loop.safeguards.update_tolerance=-0.1",
+     "^loop.safeguards.update_tolerance=-0.1: must be a number >= 0, or null"),
     ("loop.learning.momentum_weight=-1", "^loop.learning.momentum_weight=-1.0: must be a number >= 0"),
-    ("loop.final_learning_rate_fraction=1.5",
-     "^loop.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]"),
+    ("loop.safeguards.final_learning_rate_fraction=1.5",
+     "^loop.safeguards.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]"),
     ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
-    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.replay_capacity"),
+    ("loop.buffer_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
+    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
 ])
 def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
     """The same checks as the CLI's, in process (the CLI path is covered above)."""
@@ -126,7 +152,7 @@ def test_help_explains_every_group_and_hides_the_schema(tmp_path):
     described, options = done.stdout.split("== Options of each group ==")
     groups = sorted(p.name for p in (ROOT / "litl" / "conf").iterdir() if p.is_dir()
                     and p.name != "__pycache__")
-    assert len(groups) == 12
+    assert len(groups) == 13
     for group in groups:
         # A sentence in the group list, and its options below.
         assert re.search(rf"^{group} +\S.{{20,}}", described, re.M), group
@@ -163,7 +189,7 @@ def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():
     variant = compose(["experiment=fig4a_arm", "variant=vae_one_shot"])
     assert variant.observer.kind == "vae" and variant.loop.schedule == "one_shot"
     sized = compose(["variant=kmeans", "size=s4"])
-    assert sized.observer.kind == "kmeans" and sized.observer.clusters == 4
+    assert sized.observer.kind == "kmeans" and sized.observer.kmeans.clusters == 4
     demo = compose([])
     assert demo.experiment.name == "demo" and build_robot(demo).config.dx == 1 / 64
 

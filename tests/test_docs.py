@@ -1,5 +1,6 @@
-"""The API reference site builds from the docstrings with warnings as errors, with a page for the
-simulator, robots, observers, loop, CLI and report."""
+"""The documentation site builds with warnings as errors: the guide (docs/guide/), the dated results
+(docs/results/) and the API reference from the docstrings, with a page for the simulator, robots,
+observers, loop, CLI and report (docs/api/)."""
 
 import pathlib
 import subprocess
@@ -8,7 +9,7 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-def test_the_api_docs_build_without_warnings(tmp_path):
+def test_the_docs_build_without_warnings(tmp_path):
     done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
                            str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
                           timeout=600)
@@ -22,6 +23,14 @@ def test_the_api_docs_build_without_warnings(tmp_path):
                         'id="litl.report.cli.main"', 'id="litl.pictures.draw_run"',
                         'id="litl.viz.saliency.animate_saliency"']}
     for page, names in pages.items():
-        html = (tmp_path / "site" / page / "index.html").read_text()
+        html = (tmp_path / "site" / "api" / page / "index.html").read_text()
         for name in names:
             assert name in html, (page, name)
+    # Every guide and results page is built, and the navigation shows the three sections.
+    for section in ("guide", "results"):
+        for source in (ROOT / "docs" / section).glob("*.md"):
+            name = "" if source.stem == "index" else source.stem
+            assert (tmp_path / "site" / section / name / "index.html").exists(), source
+    home = (tmp_path / "site" / "index.html").read_text()
+    for section in ("Guide", "Results", "API"):
+        assert section in home, section

@@ -1,4 +1,5 @@
-"""Each of the README's Python examples runs as written, on its own, and shows what it claims.
+"""Each Python example of the README and the guide (docs/guide/*.md) runs as written, on its own,
+and shows what it claims; the README stays a front page with the two commands.
 
 `python -m litl` itself: tests/test_cli.py.
 """
@@ -9,16 +10,22 @@ import re
 import jax.numpy as jnp
 import numpy as np
 
-README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
-BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+PAGES = [README, *sorted((ROOT / "docs" / "guide").glob("*.md"))]
+# (page, block) for every ```python block of the README and the guide pages.
+BLOCKS = [(page, block) for page in PAGES
+          for block in re.findall(r"```python\n(.*?)```", page.read_text(), re.S)]
 
 
 def run_block(first_line: str) -> dict:
-    """Execute the one README block that starts with `first_line` in a fresh namespace."""
-    found = [block for block in BLOCKS if block.startswith(first_line)]
-    assert len(found) == 1, f"expected one README python block starting {first_line!r}"
+    """Execute the one python block (README or guide) that starts with `first_line` in a fresh
+    namespace."""
+    found = [(page, block) for page, block in BLOCKS if block.startswith(first_line)]
+    assert len(found) == 1, f"expected one python block starting {first_line!r}, found {len(found)}"
+    page, block = found[0]
     namespace = {"__name__": "readme"}
-    exec(compile(found[0], f"{README}:{first_line}", "exec"), namespace)
+    exec(compile(block, f"{page}:{first_line}", "exec"), namespace)
     return namespace
 
 
@@ -33,17 +40,35 @@ OBSERVER_MODULE = "# my_observers.py"    # tests/loop/test_observers.py runs it
 
 
 def test_every_block_is_checked():
-    for block in BLOCKS:
+    assert len(PAGES) > 1, "no guide pages found under docs/guide/"
+    for page, block in BLOCKS:
         starts = [s for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP, MODULE,
                               OBSERVER_MODULE) if block.startswith(s)]
-        assert len(starts) == 1, f"this README python block has no test:\n{block[:200]}"
+        assert len(starts) == 1, f"this python block of {page.name} has no test:\n{block[:200]}"
+
+
+def test_readme_is_a_front_page_with_the_two_commands():
+    text = README.read_text()
+    assert len(text.splitlines()) <= 250, "README.md is the front page: the guide is docs/guide/"
+    for marker, command in (("<!-- run-command -->", ".venv/bin/python -m litl"),
+                            ("<!-- test-command -->", ".venv/bin/python -m pytest -q")):
+        after = text.split(marker, 1)[1].lstrip()
+        assert after.startswith("```bash\n"), marker
+        assert after.split("\n")[1].endswith(command), marker
+
+
+def test_readme_and_guide_links_point_at_files():
+    for page in PAGES:
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text()):
+            if "://" not in target:
+                assert (page.parent / target).exists(), f"{page.name} links to missing {target}"
 
 
 def test_simulating_a_body_walks_and_has_gradients():
     ns = run_block(SIMULATING)
     assert ns["trajectory"].snapshots.shape == (10, 64, 64, 2)
     walked = float(ns["trajectory"].observations[-1, 0] - ns["trajectory"].observations[0, 0])
-    assert walked > 0.01, f"the README's body should walk right, moved {walked}"
+    assert walked > 0.01, f"the guide's body should walk right, moved {walked}"
     assert bool(jnp.isfinite(ns["value"]))
     assert abs(float(ns["d_amplitude"])) > 1e-5
     assert float(jnp.abs(ns["d_design"].youngs_modulus).sum()) > 1e-4

@@ -108,9 +108,9 @@ def test_runs_recorded_by_the_config_model_are_labelled_like_older_ones():
                                         "config": json.loads(json.dumps(config.run_settings()))},
                    records=())
 
-    runs = [current(), current(observer={"kind": "kmeans"}), current(loop={"replay": False}),
-            current(loop={"schedule": "one_shot"}), current(loop={"alpha": 1.0}),
-            current(observer={"latent_dim": 4})]
+    runs = [current(), current(observer={"kind": "kmeans"}),
+            current(loop={"replay_buffer": False}), current(loop={"schedule": "one_shot"}),
+            current(loop={"alpha": 1.0}), current(observer={"vae": {"latent_dim": 4}})]
     assert labels(runs) == ["vae r=8", "kmeans", "vae r=8, no replay", "vae r=8, one-shot",
                             "vae r=8, α=1", "vae r=4"]
     old = [fake_run(), fake_run(observer="kmeans"), fake_run(replay=False),
@@ -354,3 +354,31 @@ def test_unreadable_settings_and_runs_without_metrics(tmp_path, capsys):
     assert "0 has no metrics yet; left out" in "\n".join(write_report(tmp_path).summary["notes"])
     (empty / "run.json").write_text("{not json")
     assert f"{empty / 'run.json'}: cannot be read" in run_cli_error([str(tmp_path)], capsys)
+
+
+def test_runs_that_differ_in_any_setting_their_observer_reads_are_not_pooled():
+    """What an observer reads is its config's sections (observer.vae, loop.learning), so a key
+    added to them (observer.vae.field) tells runs apart without a hand list; runs that differ in
+    their method are named by it, not by the keys the method sets."""
+    def current(reads=("observer.vae", "loop.learning"), config=None, **changes):
+        config = config or Config().replace(**changes)
+        return Run(path=None, settings={
+            "robot": "biped", "dx": 1 / 32, "steps": 40,
+            "config": json.loads(json.dumps(config.run_settings())),
+            "observer": {"learned": True, "reads": list(reads)}}, records=())
+
+    runs = [current(), current(observer={"vae": {"field": "velocity"}})]
+    assert labels(runs) == ["vae observer.vae.field=mass_weighted",
+                            "vae observer.vae.field=velocity"]
+    assert len(group_runs(runs)) == 2
+    # An older run.json listed single keys and missed the field: its observer's sections count.
+    older = [current(reads=["observer.latent_dim", "observer.window", "loop.learning"]),
+             current(reads=["observer.latent_dim", "observer.window", "loop.learning"],
+                     observer={"vae": {"field": "velocity"}})]
+    assert labels(older) == labels(runs)
+    # Two methods: labelled by the method; a key set apart from the method is still named.
+    methods = [current(), current(config=Config.for_method("paper")),
+               current(config=Config.for_method("paper").replace(observer={"vae": {
+                   "latent_dim": 4}}))]
+    assert labels(methods) == ["vae method=litl r=8", "vae method=paper r=8",
+                               "vae method=paper r=4"]

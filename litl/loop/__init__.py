@@ -13,7 +13,7 @@ from litl.loop.learning import (
     LearningStats, Split, fit_scale_masked, make_learning_phase, random_split,
     soft_update,
 )
-from litl.loop.replay import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
+from litl.loop.replay_buffer import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
 from litl.loop.run import RunDirectoryError, RunResult, load_final, run
 
 __all__ = [

@@ -18,7 +18,7 @@ An iteration whose rollout blew up or lost particles, or whose loss or gradient 
 skipped: parameters, optimizer states and the replay buffer stay as they were, and the metrics say
 why (`SKIP_REASONS`). Each seed also keeps the parameters of its best rollout so far (`Best`).
 
-Stepping back (`loop.step_back_tolerance`): an iteration whose task loss is worse than the last
+Stepping back (`loop.safeguards.step_back_tolerance`): an iteration whose task loss is worse than the last
 accepted iterate's (the `Anchor`) by more than the tolerance x |its loss| returns to that iterate
 and takes its step again at half the size (from its gradients and optimizer states, so no
 simulation is repeated), up to `MAX_STEP_BACKS` times in a row; the metrics say `stepped_back`.
@@ -39,7 +39,7 @@ from litl.loop import observers
 from litl.config import Config, ControllerKind, FeatureGradient, GridField, Schedule, SettingsError
 from litl.loop.learning import LearningStats, soft_update
 from litl.loop.observers import Observer
-from litl.loop.replay import ReplayBuffer, add, replace_with
+from litl.loop.replay_buffer import ReplayBuffer, add, replace_with
 from litl.models.controller import MLPController
 from litl.models.open_loop import SinusoidController
 from litl.robots.robot import Robot
@@ -73,7 +73,7 @@ class Best:
 
 @struct.dataclass
 class Anchor:
-    """The last accepted optimization iterate, for stepping back (`loop.step_back_tolerance`).
+    """The last accepted optimization iterate, for stepping back (`loop.safeguards.step_back_tolerance`).
 
     Attributes:
       controller, design: θ, φ at that iterate.
@@ -196,16 +196,22 @@ def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
                          steps_per_epoch=zero, update_accepted=jnp.ones((), bool))
 
 
-def make_algorithm(robot: Robot, config: Config) -> Algorithm:
+def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     """Build the pure functions of Algorithm 1 for `robot` under `config` (its observer,
-    controller, sim and loop settings)."""
-    config.check_observer_kind()
+    controller, sim and loop settings).
+
+    `on_epoch(epoch, validation_loss)`, if given, is called from inside every learning phase
+    after each epoch (numpy values, one per seed under vmap; `Learner.reporting_epochs`)."""
+    observers.check_kind(config)
     dtype = jnp.dtype(config.sim.dtype)
     if dtype == jnp.float64 and not jax.config.jax_enable_x64:
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.sim.steps or robot.steps
     scene = robot.scene(dtype)
     observer = observers.make(config.observer.kind, robot, config, scene.config, dtype)
+    if on_epoch is not None and observer.learner is not None:
+        observer = dataclasses.replace(observer,
+                                       learner=observer.learner.reporting_epochs(on_epoch))
     schedule = "fixed" if observer.learner is None else config.loop.schedule.value
     stride = min(config.loop.snapshot_stride, steps)
     _check_learning_data(config.loop, observer, schedule, steps, stride)
@@ -220,9 +226,10 @@ def make_algorithm(robot: Robot, config: Config) -> Algorithm:
 
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
     if settings.kind == ControllerKind.sinusoid:
-        return SinusoidController(robot.n_actuators, omega=settings.omega)
-    return MLPController(robot.n_actuators, settings.widths, period=settings.period,
-                         feature_scale=settings.feature_scale)
+        return SinusoidController(robot.n_actuators, omega=settings.sinusoid.omega)
+    mlp = settings.mlp
+    return MLPController(robot.n_actuators, mlp.widths, period=mlp.period,
+                         feature_scale=mlp.feature_scale)
 
 
 def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, stride: int):
@@ -230,14 +237,16 @@ def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, st
     two snapshots it can learn nothing, and would say so only as epochs_used 0."""
     if observer.learner is None or schedule == Schedule.simultaneous:
         return
-    held = loop.replay_capacity if loop.replay else min(loop.replay_capacity, steps // stride)
+    capacity = loop.buffer_capacity
+    held = capacity if loop.replay_buffer else min(capacity, steps // stride)
     if held < 2:
         raise SettingsError(
             f"the learning phase needs at least 2 snapshots in the replay buffer, but it can "
-            f"hold {held} (loop.replay_capacity={loop.replay_capacity}, "
+            f"hold {held} (loop.buffer_capacity={capacity}, "
             f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
-            f"loop.snapshot_stride={loop.snapshot_stride}, loop.replay={loop.replay}); "
-            f"raise loop.replay_capacity or lower loop.snapshot_stride")
+            f"loop.snapshot_stride={loop.snapshot_stride}, "
+            f"loop.replay_buffer={loop.replay_buffer}); raise loop.buffer_capacity or lower "
+            f"loop.snapshot_stride")
 
 
 def _optimizer(learning_rate: float, clip: float | None) -> optax.GradientTransformation:
@@ -274,18 +283,18 @@ class _Pieces:
 
     @property
     def controller_adam(self) -> optax.GradientTransformation:
-        return _optimizer(self.config.controller.learning_rate, self.config.loop.gradient_clip)
+        return _optimizer(self.config.controller.learning_rate, self.config.loop.safeguards.gradient_clip)
 
     @property
     def design_adam(self) -> optax.GradientTransformation:
-        return _optimizer(self.config.loop.design_learning_rate, self.config.loop.gradient_clip)
+        return _optimizer(self.config.loop.design_learning_rate, self.config.loop.safeguards.gradient_clip)
 
     def policy(self, params, state, grid_velocity):
         """Actuation from the observer's features of the grid (and the clock)."""
         controller_params, observer_params = params
         features = self.observer.features(jax.lax.stop_gradient(observer_params), state,
                                           grid_velocity)
-        if self.config.controller.feature_gradient == FeatureGradient.stop:
+        if self.config.controller.mlp.feature_gradient == FeatureGradient.stop:
             features = jax.lax.stop_gradient(features)
         time = state.step.astype(self.dtype) * self.scene.config.dt
         return self.controller.apply(controller_params, features.astype(self.dtype), time=time)
@@ -293,7 +302,7 @@ class _Pieces:
     @functools.cached_property
     def field(self):
         """field(grid): what the policy reads of the grid and the snapshots record."""
-        if self.config.observer.field == GridField.mass_weighted:
+        if self.config.observer.vae.field == GridField.mass_weighted:
             scene = self.scene
             return mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
         return grid_velocity
@@ -347,7 +356,7 @@ class _Pieces:
             design_optimizer=self.design_adam.init(design),
             observer=observer_params,
             observer_optimizer=observer_optimizer,
-            buffer=ReplayBuffer.empty(self.config.loop.replay_capacity, self.window.shape, dim,
+            buffer=ReplayBuffer.empty(self.config.loop.buffer_capacity, self.window.shape, dim,
                                       dtype),
             key=jax.random.key_data(key),
             stats=empty_stats(dtype, self.config.loop.learning.max_epochs, dim),
@@ -371,14 +380,14 @@ class _Pieces:
 
     def learn(self, state: LoopState, alpha=None, check: bool = True):
         """A learning phase on a copy Θ′, then Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`), kept only
-        if the controller does no worse with it (`loop.update_tolerance`; `check` False: kept)."""
+        if the controller does no worse with it (`loop.safeguards.update_tolerance`; `check` False: kept)."""
         if self.learner is None:
             return state, state.stats
         alpha = self.config.loop.alpha if alpha is None else alpha
         state, key = self.split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
         updated = soft_update(state.observer, trained, alpha)
-        tolerance = self.config.loop.update_tolerance
+        tolerance = self.config.loop.safeguards.update_tolerance
         if check and tolerance is not None:
             accepted = self.update_is_safe(state, updated, tolerance)
             updated = keep_if(accepted, updated, state.observer)
@@ -421,7 +430,7 @@ class _Pieces:
         step_back = healthy & self.falls_back(state.anchor, total)
         state = self.take_step(state, total, controller_grad, design_grad, step_back)
         snapshots = trajectory.snapshots
-        keep = add if self.config.loop.replay else replace_with
+        keep = add if self.config.loop.replay_buffer else replace_with
         state = state.replace(buffer=keep(state.buffer, snapshots,
                                           self.snapshot_velocities(trajectory)))
         recon = jnp.full((), jnp.nan, self.dtype)
@@ -455,8 +464,8 @@ class _Pieces:
 
     def falls_back(self, anchor: Anchor, total) -> jnp.ndarray:
         """() bool: the rollout's task loss is worse than the anchor's by more than
-        `loop.step_back_tolerance` x |anchor's loss|, and the step may still be halved."""
-        tolerance = self.config.loop.step_back_tolerance
+        `loop.safeguards.step_back_tolerance` x |anchor's loss|, and the step may still be halved."""
+        tolerance = self.config.loop.safeguards.step_back_tolerance
         if tolerance is None:
             return jnp.zeros((), bool)
         limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
@@ -484,10 +493,10 @@ class _Pieces:
 
     def step_size_factor(self, iteration) -> jnp.ndarray:
         """() the fraction of θ's and φ's configured Adam step sizes at this global iteration:
-        a cosine from 1 at the first to `loop.final_learning_rate_fraction` at the last of the
-        run's K x M iterations (constant 1 when that is 1, the paper's setting)."""
+        a cosine from 1 at the first to `loop.safeguards.final_learning_rate_fraction` at the
+        last of the run's K x M iterations (constant 1 when that is 1, the paper's setting)."""
         loop = self.config.loop
-        final = loop.final_learning_rate_fraction
+        final = loop.safeguards.final_learning_rate_fraction
         total = loop.episodes * loop.iterations
         progress = jnp.clip(jnp.asarray(iteration, self.dtype) / max(total - 1, 1), 0.0, 1.0)
         return jnp.asarray(final + (1.0 - final) * 0.5 * (1.0 + jnp.cos(jnp.pi * progress)),

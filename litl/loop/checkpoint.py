@@ -9,6 +9,7 @@ damaged later (a truncated file, lost metadata) is skipped on restore in favour 
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import pathlib
 
 import jax
@@ -18,7 +19,7 @@ import orbax.checkpoint as ocp
 from litl.loop.progress import say
 
 
-class CheckpointError(RuntimeError):
+class CheckpointError(UserError, RuntimeError):
     """No checkpoint of a run directory restores; the message says what to do."""
 
 

@@ -28,9 +28,9 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
+from typing import Callable
 
 import jax
 import jax.numpy as jnp
@@ -39,7 +39,7 @@ import optax
 from flax import struct
 
 from litl.config import LearningConfig
-from litl.loop.replay import ReplayBuffer
+from litl.loop.replay_buffer import ReplayBuffer
 from litl.models.vae import (
     AutoencoderParams, ConvAutoencoder, active_units, explained_variance, loss_terms,
 )
@@ -89,7 +89,7 @@ class LearningStats:
       val_recon_history: (max_epochs,) validation reconstruction loss per epoch (NaN: not run).
       steps_per_epoch: () int32 SGD steps (minibatches) per epoch.
       update_accepted: () bool, whether the observer took this phase's soft update (False: the
-        loop's check `loop.update_tolerance` kept the old observer; True where unchecked).
+        loop's check `loop.safeguards.update_tolerance` kept the old observer; True where unchecked).
     """
 
     recon_loss_train: jnp.ndarray
@@ -209,29 +209,8 @@ def _chunks(slots, mask, size):
     return slots, mask
 
 
-# Called from inside the jitted phase after every epoch with (epoch, validation loss), batched or
-# per seed: the progress display listens while a phase runs (`listen_to_epochs`).
-_EPOCH_LISTENERS: list = []
-
-
-@contextlib.contextmanager
-def listen_to_epochs(listener):
-    """Within the block, `listener(epoch, validation_loss)` (numpy, one entry per seed or
-    scalars) is called after every learning epoch of any phase that runs."""
-    _EPOCH_LISTENERS.append(listener)
-    try:
-        yield
-    finally:
-        _EPOCH_LISTENERS.remove(listener)
-
-
-def _epoch_done(epoch, validation):
-    for listener in list(_EPOCH_LISTENERS):
-        listener(np.asarray(epoch), np.asarray(validation))
-
-
 def make_learning_phase(model: ConvAutoencoder, config: LearningConfig,
-                        report_epochs: bool = True) -> LearningPhase:
+                        on_epoch: Callable | None = None) -> LearningPhase:
     """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
     `learn` refits the input scale on the valid buffer entries, trains the network of `params` (Θ′)
@@ -242,13 +221,15 @@ def make_learning_phase(model: ConvAutoencoder, config: LearningConfig,
     Args:
       model: the observer architecture.
       config: the phase's hyperparameters.
-      report_epochs: call the `listen_to_epochs` listeners after every epoch (a host callback;
-        a compiled program holding one cannot be reused from JAX's persistent compilation cache
-        in another process, so a run without a progress display leaves it out).
+      on_epoch: if given, `on_epoch(epoch, validation_loss)` (numpy; one entry per seed under
+        vmap) is called after every epoch, from inside the compiled phase (a host callback; a
+        program holding one cannot be reused from JAX's persistent compilation cache in another
+        process, so a run without a progress display leaves it out). The whole history is also
+        returned (`LearningStats.val_recon_history`).
     """
     if not isinstance(config, LearningConfig):
         raise ValueError(f"config must be a LearningConfig, got {type(config).__name__}")
-    return LearningPhase(model, config, report_epochs)
+    return LearningPhase(model, config, on_epoch)
 
 
 def _gather(buffer: ReplayBuffer, slots, mask, dtype):
@@ -266,12 +247,15 @@ class LearningPhase:
     Attributes:
       model: the observer architecture.
       config: the phase's hyperparameters.
-      report_epochs: whether epochs are reported to the `listen_to_epochs` listeners.
+      on_epoch: called after every epoch with (epoch, validation loss), or None.
     """
 
     model: ConvAutoencoder
     config: LearningConfig
-    report_epochs: bool = True
+    on_epoch: Callable | None = None
+
+    def _report_epoch(self, epoch, validation):
+        self.on_epoch(np.asarray(epoch), np.asarray(validation))
 
     @property
     def optimizer(self) -> optax.GradientTransformation:
@@ -377,8 +361,8 @@ class LearningPhase:
                                   split.validation_mask)
         validation = means["total"].astype(state.best_loss.dtype)
         epoch = state.epoch + 1
-        if self.report_epochs:
-            jax.debug.callback(_epoch_done, epoch, validation)
+        if self.on_epoch is not None:
+            jax.debug.callback(self._report_epoch, epoch, validation)
         improved = validation < state.best_loss
         return _LearningState(
             epoch=epoch,

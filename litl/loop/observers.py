@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import optax
 
 from litl.config import SettingsError
-from litl.loop.learning import LearningStats, make_learning_phase
+from litl.loop.learning import LearningPhase, LearningStats, make_learning_phase
 from litl.models import vae
 from litl.models.kmeans import fit_kmeans, kmeans_features
 from litl.models.window import Window
@@ -60,6 +60,14 @@ class Learner:
     optimizer_init: Callable[[Any], Any]
     model: Any
 
+    def reporting_epochs(self, on_epoch) -> "Learner":
+        """This learner with a phase that calls `on_epoch(epoch, validation_loss)` after every
+        epoch (from inside the compiled phase); a phase of your own that is not a
+        `LearningPhase` is kept as it is."""
+        if not isinstance(self.phase, LearningPhase):
+            return self
+        return dataclasses.replace(self, phase=dataclasses.replace(self.phase, on_epoch=on_epoch))
+
 
 @dataclasses.dataclass(frozen=True)
 class Observer:
@@ -71,19 +79,27 @@ class Observer:
       features: ``features(params, state, grid_velocity) -> (n_features,)``, jittable, used at
         every simulation step.
       learner: how it learns from snapshots; None for an observer fixed at init.
-      reads: the settings it depends on, as dotted keys of `litl.config.Config`
-        (``"observer.latent_dim"``; reports label runs by those that differ).
+      settings: the section of `litl.config.ObserverConfig` it reads (``"vae"`` for
+        ``observer.vae.*``), or None.
     """
 
     n_features: int
     init: Callable[[jax.Array, int], Any]
     features: Callable[[Any, Any, jax.Array], jax.Array]
     learner: Learner | None = None
-    reads: tuple[str, ...] = ()
+    settings: str | None = None
 
     @property
     def learned(self) -> bool:
         return self.learner is not None
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        """The settings it depends on, as sections of `litl.config.Config`: its own section
+        and, if it learns, the learning phase (``("observer.vae", "loop.learning")``). Every key
+        in them counts: reports pool two runs only where all of them agree."""
+        return ((f"observer.{self.settings}",) if self.settings else ()) + (
+            ("loop.learning",) if self.learned else ())
 
 
 # factory(robot, config, sim_config, dtype) -> Observer; config: the run's `litl.config.Config`
@@ -115,37 +131,45 @@ def make(name: str, robot, config, sim_config, dtype) -> Observer:
     return _FACTORIES[name](robot, config, sim_config, dtype)
 
 
+def check_kind(config) -> None:
+    """Raise `SettingsError` unless `config.observer.kind` names a registered observer."""
+    kind, module = config.observer.kind, config.observer.module
+    if kind not in _FACTORIES:
+        hint = (f"; observer.module={module!r} registered no observer of that name" if module else
+                "; an observer of your own: observer.kind=<name> observer.module=<module that "
+                "registers it>")
+        raise SettingsError(f"observer.kind={kind!r}: unknown observer; choose one of "
+                            f"{list(names())}{hint}", "observer.kind")
+
+
 def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
     """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
-    settings, learning = config.observer, config.loop.learning
+    settings, learning = config.observer.vae, config.loop.learning
     window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
     model = vae.ConvAutoencoder(window.shape, latent_dim=settings.latent_dim,
                                 channels=settings.channels, activation=settings.activation.value,
                                 variational=variational)
     adam = optax.adam(learning.learning_rate)
-    learner = Learner(window=window, phase=make_learning_phase(model, learning,
-                                                         report_epochs=config.output.progress),
+    learner = Learner(window=window, phase=make_learning_phase(model, learning),
                       step=vae.make_train_step(model, adam, learning.beta,
                                                learning.momentum_weight),
                       optimizer_init=lambda params: adam.init(params.network), model=model)
     return Observer(
         n_features=settings.latent_dim,
         init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
-        features=vae.make_observer(model, window), learner=learner,
-        reads=("observer.latent_dim", "observer.window", "observer.channels",
-               "observer.activation", "loop.learning"))
+        features=vae.make_observer(model, window), learner=learner, settings="vae")
 
 
 def kmeans(robot, config, sim_config, dtype) -> Observer:
     """The k-means baseline: clusters of the rest configuration, fitted once per seed."""
-    clusters = config.observer.clusters
+    clusters = config.observer.kmeans.clusters
     if clusters > robot.layout.n_particles:
-        raise SettingsError(f"observer.clusters={clusters} exceeds the robot's "
-                            f"{robot.layout.n_particles} particles", "observer.clusters")
+        raise SettingsError(f"observer.kmeans.clusters={clusters} exceeds the robot's "
+                            f"{robot.layout.n_particles} particles", "observer.kmeans.clusters")
     rest = robot.initial_state(dtype).x
     return Observer(n_features=2 * clusters * sim_config.dim,
                     init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
-                    features=kmeans_features, reads=("observer.clusters",))
+                    features=kmeans_features, settings="kmeans")
 
 
 def no_observer(robot, config, sim_config, dtype) -> Observer:

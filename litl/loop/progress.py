@@ -20,6 +20,8 @@ import sys
 import threading
 import time
 
+import numpy as np
+
 # One number format for the status line and the report: significant digits, never "-0".
 from litl.formatting import format_number
 
@@ -48,6 +50,14 @@ class Progress:
         self.enabled = enabled
         self.interactive = enabled and getattr(self.stream, "isatty", lambda: False)()
         self.start = time.perf_counter()
+        self._epoch = {"epoch": 0, "validation": float("nan")}
+
+    def on_epoch(self, epoch, validation) -> None:
+        """A learning epoch ended (called from inside the compiled phase, `make_algorithm`'s
+        on_epoch): (epoch, validation loss), one entry per seed."""
+        latest = self._epoch
+        latest["epoch"] = max(latest["epoch"], int(np.max(epoch)))
+        latest["validation"] = float(np.mean(validation))
 
     def _write(self, line: str, newline: bool) -> None:
         self.stream.write(("\r" if self.interactive and not newline else "") + _LABEL + line +
@@ -73,20 +83,13 @@ class Progress:
     @contextlib.contextmanager
     def learning(self, episode: int):
         """Around a learning phase: on a terminal the line shows the epoch and validation loss as
-        they come (reported from inside the jitted phase, `litl.loop.learning.listen_to_epochs`)
-        and a ticking clock; in logs one line when it ends."""
-        from litl.loop.learning import listen_to_epochs
-
+        they come (`on_epoch`) and a ticking clock; in logs one line when it ends."""
         if not self.enabled:
             yield
             return
         start = time.perf_counter()
         done = threading.Event()
-        latest = {"epoch": 0, "validation": float("nan")}
-
-        def on_epoch(epoch, validation):
-            latest["epoch"] = max(latest["epoch"], int(epoch.max()))
-            latest["validation"] = float(validation.mean())
+        latest = self._epoch = {"epoch": 0, "validation": float("nan")}
 
         def line():
             return (f"episode {episode + 1}/{self.episodes} learning phase: epoch "
@@ -101,8 +104,7 @@ class Progress:
         if ticker:
             ticker.start()
         try:
-            with listen_to_epochs(on_epoch):
-                yield
+            yield
         finally:
             done.set()
             if ticker:

@@ -27,6 +27,7 @@ back to the lines written before it.
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import dataclasses
 import json
 import math
@@ -42,9 +43,9 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
-from litl.config import Config, flatten
+from litl.config import Config, flatten, upgrade
 from litl.loop.progress import Progress, say
-from litl.loop.replay import newest
+from litl.loop.replay_buffer import newest
 from litl.robots.robot import Robot
 
 
@@ -52,7 +53,7 @@ from litl.robots.robot import Robot
 MANY_SKIPS = 5
 
 
-class RunDirectoryError(ValueError):
+class RunDirectoryError(UserError, ValueError):
     """The run directory belongs to a different run."""
 
 
@@ -142,12 +143,14 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
     run_dir = pathlib.Path(run_dir)
-    # Learning epochs are reported only where a progress display listens (see make_learning_phase).
-    algorithm = make_algorithm(robot, config.replace(output={"progress": progress}))
+    bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)
+    # Learning epochs are reported only where a progress display shows them (a compiled phase
+    # without the host callback can come from JAX's persistent cache).
+    algorithm = make_algorithm(robot, config, on_epoch=bar.on_epoch if progress else None)
     wanted = settings(robot, config, algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):
-        return _run_locked(robot, config, run_dir, algorithm, wanted, progress,
+        return _run_locked(robot, config, run_dir, algorithm, wanted, bar,
                            stop_after_episodes, config_files or {})
 
 
@@ -202,7 +205,7 @@ class RunDirectoryLock:
         return False
 
 
-def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_episodes,
+def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes,
                 config_files):
     _claim(run_dir, wanted, config_files)
     loop = config.loop
@@ -213,7 +216,6 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, progress, stop_after_
         state, counters = shell.start()
         episodes = loop.episodes if stop_after_episodes is None else min(
             stop_after_episodes, loop.episodes)
-        bar = Progress(loop.episodes, loop.iterations, enabled=progress)
         before = np.asarray(counters["loss_before_retrain"], np.float64)
         for episode in range(int(counters["episodes_done"]), episodes):
             state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
@@ -250,6 +252,10 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
                 f"{run_dir} holds a run written by an earlier version of litl (its run.json has "
                 f"no 'config'); it cannot be resumed. Choose a new run directory (`python -m "
                 f"litl.report` still reads it). Nothing was changed.")
+        # Settings recorded under keys that have moved since, and the observer's description,
+        # which follows from them (what the report reads).
+        found = {**found, "config": upgrade(found["config"]),
+                 "observer": wanted["observer"]}
         if found != wanted:
             found, wanted_flat = flatten(found), flatten(wanted)
             changed = sorted(k for k in set(found) | set(wanted_flat)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from litl.report.runs import ReportError
+from litl.errors import UserError
 from litl.report.summary import format_number, unjudged_reason, write_report
 
 
@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         report = write_report(args.dir, args.out, args.level)
-    except (ReportError, OSError) as error:
+    except (UserError, OSError) as error:
         # Bad input (or an unwritable --out) is the user's to fix: a message, not a traceback.
         parser.exit(2, f"{parser.prog}: error: {error}\n")
     print(report.summary_path)

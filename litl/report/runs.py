@@ -7,6 +7,7 @@ them, numbered and possibly nested (a date folder, `0/`, `1/`, ...); `load_runs`
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import dataclasses
 import json
 import math
@@ -14,20 +15,21 @@ import os
 import pathlib
 import re
 
-from litl.config import LoopConfig, flatten
+from litl.config import MOVED_KEYS, Config, LoopConfig, Method, flatten
 
 _METHOD = LoopConfig()
 # The paper's method: these ablation switches are named in a label only when a run departs from
 # the method's value (`litl.config.LoopConfig`'s default).
 ABLATIONS = (
     # (setting, the method's value, how a run that departs from it is named)
-    ("loop.replay", _METHOD.replay, lambda value: "no replay"),
+    ("loop.replay_buffer", _METHOD.replay_buffer, lambda value: "no replay"),
     ("loop.schedule", _METHOD.schedule.value, lambda value: str(value).replace("_", "-")),
     ("loop.alpha", _METHOD.alpha, lambda value: f"α={value:g}"),
     ("loop.codesign", _METHOD.codesign, lambda value: "control only"),
 )
 # run.json written before litl.config: the loop's settings in one flat object. Where each of its
-# keys lives now (one_shot / simultaneous became loop.schedule).
+# keys lived then in litl.config (one_shot / simultaneous became loop.schedule); `MOVED_KEYS`
+# says where they live now.
 LEGACY_KEYS = {
     "episodes": "loop.episodes", "iterations": "loop.iterations", "steps": "sim.steps",
     "dtype": "sim.dtype", "observer": "observer.kind", "latent_dim": "observer.latent_dim",
@@ -42,25 +44,27 @@ LEGACY_KEYS = {
     "alpha": "loop.alpha", "replay": "loop.replay", "codesign": "loop.codesign",
     "learning": "loop.learning", "seeds": "seeds", "seed": "seed",
 }
-# Observers whose run.json predates `Observer.reads`.
-LEGACY_READS = {"vae": ("observer.latent_dim", "observer.window", "observer.channels",
-                        "observer.activation", "loop.learning"),
-                "ae": ("observer.latent_dim", "observer.window", "observer.channels",
-                       "observer.activation", "loop.learning"),
-                "kmeans": ("observer.clusters",)}
+# What the built-in observers read, for run.json files that predate the settings' sections (they
+# listed single keys, and missed some).
+LEGACY_READS = {"vae": ("observer.vae", "loop.learning"), "ae": ("observer.vae", "loop.learning"),
+                "kmeans": ("observer.kmeans",)}
 OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
 IGNORED = ("seed", "seeds", "sim.steps", "observer.kind", "controller.kind")
-# Settings that matter for one controller only.
-CONTROLLER_SETTINGS = {"controller.widths": "mlp", "controller.period": "mlp",
-                       "controller.feature_gradient": "mlp", "controller.omega": "sinusoid"}
 # How a setting that differs between runs is named in their labels (others by their key).
-SHORT_NAMES = (("observer.latent_dim", "r"), ("observer.clusters", "k"),
+SHORT_NAMES = (("observer.vae.latent_dim", "r"), ("observer.kmeans.clusters", "k"),
                ("controller.learning_rate", "lr"), ("loop.design_learning_rate", "design lr"))
+
+
+def method_defaults(method: str) -> dict:
+    """The settings `method` sets, by dotted key: those where the methods differ."""
+    starts = {m.value: flatten(Config.for_method(m).run_settings()) for m in Method}
+    return {key: value for key, value in starts[method].items()
+            if key != "method" and len({json.dumps(s.get(key)) for s in starts.values()}) > 1}
 REQUIRED_KEYS = ("seed", "step", "task_loss")
 
 
-class ReportError(ValueError):
+class ReportError(UserError, ValueError):
     """The input cannot be reported on; the message says which file and what is wrong."""
 
 
@@ -92,12 +96,18 @@ class Run:
         """The run's settings by dotted key (``"loop.alpha"``, ``"observer.kind"``), as
         `litl.config.Config.run_settings` names them (older run.json files translated)."""
         if isinstance(self.settings.get("config"), dict):
-            return flatten(self.settings["config"])
-        legacy = dict(self.settings.get("loop", {}))
-        one_shot, simultaneous = legacy.pop("one_shot", False), legacy.pop("simultaneous", False)
-        schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
-        moved = {LEGACY_KEYS.get(key, key): value for key, value in legacy.items()}
-        return {**flatten(moved), "loop.schedule": schedule}
+            flat = flatten(self.settings["config"])
+        else:
+            legacy = dict(self.settings.get("loop", {}))
+            one_shot = legacy.pop("one_shot", False)
+            simultaneous = legacy.pop("simultaneous", False)
+            schedule = ("one_shot" if one_shot else "simultaneous" if simultaneous
+                        else "alternating")
+            moved = {LEGACY_KEYS.get(key, key): value for key, value in legacy.items()}
+            flat = {**flatten(moved), "loop.schedule": schedule}
+        flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
+        flat.setdefault("method", Method.litl.value)   # runs from before methods were named
+        return flat
 
     @property
     def observer(self) -> str:
@@ -127,7 +137,11 @@ class Run:
         known = self.settings.get("observer", {}).get("reads")
         if known is None:
             return LEGACY_READS.get(self.observer, ())                          # older run.json
-        return tuple(LEGACY_KEYS.get(key, key) for key in known)
+        moved = tuple(MOVED_KEYS.get(LEGACY_KEYS.get(key, key), LEGACY_KEYS.get(key, key))
+                      for key in known)
+        if moved != tuple(known) and self.observer in LEGACY_READS:
+            return LEGACY_READS[self.observer]      # older run.json: the observer's sections
+        return moved
 
     @property
     def seeds(self) -> list[int]:
@@ -241,8 +255,8 @@ def _relevant(name: str, run: Run) -> bool:
     switches are named by `ABLATIONS`."""
     if name.startswith(("observer.", "loop.learning.")) and name not in IGNORED:
         return any(name == read or name.startswith(read + ".") for read in run.observer_reads)
-    if name in CONTROLLER_SETTINGS:
-        return run.controller == CONTROLLER_SETTINGS[name]
+    if name.startswith("controller.") and name.count(".") > 1:     # controller.<kind>.<key>
+        return name.split(".")[1] == run.controller
     return name not in (*IGNORED, *(setting for setting, _, _ in ABLATIONS))
 
 
@@ -292,8 +306,11 @@ def labels(runs: list[Run]) -> list[str]:
                 varying.append(key)
         for s, i in zip(settings, indices):
             run = runs[i]
+            # Where runs differ in their method, a key at its method's value is the method's.
+            start = method_defaults(s["method"]) if "method" in varying else {}
             head = [run.head] + [f"{names.get(key, key)}={_format(s[key], key)}"
-                                     for key in varying if _relevant(key, run) and key in s]
+                                 for key in varying if _relevant(key, run) and key in s
+                                 and (key not in start or start[key] != s[key])]
             config = run.config
             tail = [name(config[key]) for key, default, name in ABLATIONS
                     if key in config and config[key] != default

@@ -9,6 +9,7 @@ coarsen it for quick ones.
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import dataclasses
 from importlib import resources
 from typing import Callable
@@ -25,7 +26,7 @@ GRAVITY = 3.8
 UP = (0.0, 1.0)
 
 
-class UnknownRobotError(KeyError):
+class UnknownRobotError(UserError, KeyError):
     """No robot is registered under that name."""
 
     def __str__(self):

@@ -6,12 +6,13 @@ A layout is plain numpy (built once, outside jit). Builders (`litl.robots.shapes
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import dataclasses
 
 import numpy as np
 
 
-class LayoutError(ValueError):
+class LayoutError(UserError, ValueError):
     """A robot description is invalid; the message says what and how to fix it."""
 
 

@@ -14,6 +14,7 @@ Conventions:
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import dataclasses
 import math
 from typing import Literal
@@ -27,7 +28,7 @@ CONSTITUTIVE_MODELS = ("fixed_corotated", "neo_hookean")
 BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
 
 
-class ConfigError(ValueError):
+class ConfigError(UserError, ValueError):
     """A simulator setting is invalid; the message says which and how to fix it."""
 
 

@@ -6,6 +6,7 @@ These run outside jit on concrete values: `validate` and `check_time_step` befor
 
 from __future__ import annotations
 
+from litl.errors import UserError
 import numpy as np
 
 from litl.sim.config import ConfigError, SimConfig
@@ -30,7 +31,7 @@ MAX_CFL = 0.75
 MAX_ACTIVE_STRAIN = 0.2
 
 
-class SimulationError(RuntimeError):
+class SimulationError(UserError, RuntimeError):
     """A rollout produced non-finite values or particles left the grid."""
 
 

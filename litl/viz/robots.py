@@ -23,6 +23,7 @@ colours (a design φ: Young's modulus per region): ``viridis`` over the design b
 
 from __future__ import annotations
 
+from litl.errors import UserError
 from typing import Any
 
 import matplotlib.colors as mcolors
@@ -46,7 +47,7 @@ STIFFNESS_CMAP = "viridis"
 STIFFNESS_LABEL = "Young's modulus E of the region"
 
 
-class VizError(ValueError):
+class VizError(UserError, ValueError):
     """Something cannot be drawn as asked; the message says what and how to fix it."""
 
 

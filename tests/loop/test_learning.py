@@ -5,9 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.loop import learning, replay
+from litl.loop import learning, replay_buffer
 from litl.loop.learning import LearningConfig
-from litl.loop.replay import ReplayBuffer
+from litl.loop.replay_buffer import ReplayBuffer
 from litl.models import vae
 
 GRID = (32, 32)
@@ -31,7 +31,7 @@ def moving_discs(n, seed=0):
 
 
 def buffer_of(fields, capacity=CAPACITY, dtype=jnp.float32):
-    return replay.add(ReplayBuffer.empty(capacity, GRID, 2, dtype), jnp.asarray(fields, dtype))
+    return replay_buffer.add(ReplayBuffer.empty(capacity, GRID, 2, dtype), jnp.asarray(fields, dtype))
 
 
 def assert_trees_equal(a, b):
@@ -70,7 +70,7 @@ def test_learning_lowers_validation_loss(learn, params):
     validation = buffer.fields[np.asarray(split.validation)[np.asarray(split.validation_mask)]]
     assert len(validation) == 17
     # Before training, with the scale refitted the same way the phase does.
-    initial = learning.fit_scale_masked(params, buffer.fields, replay.valid_mask(buffer))
+    initial = learning.fit_scale_masked(params, buffer.fields, replay_buffer.valid_mask(buffer))
     np.testing.assert_allclose(best.scale, initial.scale, rtol=1e-6)
     # The objective the phase trains: the VAE loss with the config's KL and momentum weights.
     weights = dict(beta=CONFIG.beta, momentum_weight=CONFIG.momentum_weight)
@@ -271,7 +271,7 @@ def test_velocity_readout_r2_has_known_answers():
     # The target: the mean velocity over occupied nodes (empty nodes do not dilute it).
     field = np.zeros((1, 8, 8, 2), np.float32)
     field[0, 2:4, 2:4] = (1.0, -2.0)
-    np.testing.assert_allclose(replay.occupied_mean(jnp.asarray(field)), [[1.0, -2.0]])
+    np.testing.assert_allclose(replay_buffer.occupied_mean(jnp.asarray(field)), [[1.0, -2.0]])
 
 
 def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
@@ -295,28 +295,31 @@ def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
 
 
 def test_the_progress_line_follows_the_epochs_of_a_running_phase(learn, params):
-    """Epoch and validation loss come out of the jitted phase as it runs (the progress display
-    listens); no listener, no output."""
+    """Epoch and validation loss come out of the jitted phase as it runs, to the callback it was
+    built with (the progress display's); a phase built without one reports nothing and learns
+    the same."""
     import io
 
     from litl.loop.progress import Progress
 
     heard = []
+    log = io.StringIO()
+    bar = Progress(3, 2, stream=log)
+
+    def on_epoch(epoch, loss):
+        heard.append((int(epoch), float(loss)))
+        bar.on_epoch(epoch, loss)
+
     buffer = buffer_of(moving_discs(20))
-    with learning.listen_to_epochs(lambda epoch, loss: heard.append((int(epoch), float(loss)))):
-        _, stats = jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
+    reporting = jax.jit(learning.make_learning_phase(MODEL, CONFIG, on_epoch=on_epoch))
+    with bar.learning(0):
+        _, stats = jax.block_until_ready(reporting(params, buffer, jax.random.key(2)))
     assert [epoch for epoch, _ in heard] == list(range(1, int(stats.epochs_used) + 1))
     history = np.asarray(stats.val_recon_history)[:len(heard)]
     assert np.all(np.isfinite([loss for _, loss in heard])) and np.all(np.isfinite(history))
-    log = io.StringIO()
-    with Progress(3, 2, stream=log).learning(0):
-        jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
     assert f"learning phase: epoch {int(stats.epochs_used)}, validation loss" in log.getvalue()
-    learn(params, buffer, jax.random.key(2))          # nobody listening: nothing is called
-    assert len(heard) == int(stats.epochs_used)
-    # A phase built not to report (a run without a progress display) reports to no listener.
-    quiet = jax.jit(learning.make_learning_phase(MODEL, CONFIG, report_epochs=False))
-    with learning.listen_to_epochs(lambda epoch, loss: heard.append((int(epoch), float(loss)))):
-        _, quiet_stats = jax.block_until_ready(quiet(params, buffer, jax.random.key(2)))
-    assert len(heard) == int(stats.epochs_used)
+    _, quiet_stats = jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
+    assert len(heard) == int(stats.epochs_used)                  # nothing more was reported
     assert int(quiet_stats.epochs_used) == int(stats.epochs_used)
+    np.testing.assert_allclose(quiet_stats.val_recon_history, stats.val_recon_history,
+                               rtol=1e-6)

@@ -18,9 +18,9 @@ from tests.loop.tiny import tiny_config, tiny_robot
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
-# The README's example module: a fixed random projection of the grid velocity field.
-README = ROOT / "README.md"
-(PROJECTION_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", README.read_text(),
+# The guide's example module: a fixed random projection of the grid velocity field.
+GUIDE = ROOT / "docs" / "guide" / "observers.md"
+(PROJECTION_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(),
                                                       re.S) if block.startswith("# my_observers.py")]
 
 
@@ -44,7 +44,7 @@ def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
         observers.register("", lambda *args: None)
     with pytest.raises(SettingsError, match="observer.kind='vea': unknown observer; choose one "
                                             "of .*kmeans"):
-        tiny_config(observer={"kind": "vea"}).check_observer_kind()
+        observers.check_kind(tiny_config(observer={"kind": "vea"}))
 
 
 def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
@@ -53,12 +53,12 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     run_dir = tmp_path / "run"
     done = subprocess.run(
         [sys.executable, "-m", "litl", "observer.kind=random_projection",
-         "observer.module=my_observers", "observer.latent_dim=3", "+scale=smoke",
+         "observer.module=my_observers", "observer.vae.latent_dim=3", "+scale=smoke",
          "loop.episodes=1", "output.progress=false", f"hydra.run.dir={run_dir}"],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     settings = json.loads((run_dir / "run.json").read_text())
-    assert settings["observer"] == {"learned": False, "reads": ["observer.latent_dim"]}
+    assert settings["observer"] == {"learned": False, "reads": ["observer.vae"]}
     assert settings["config"]["observer"]["kind"] == "random_projection"
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert len(records) == 2 and all(r["recon_loss_val"] is None for r in records)

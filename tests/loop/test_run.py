@@ -160,11 +160,11 @@ def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
     from litl.config import CLOCK_PERIOD
     from litl.loop.algorithm import make_algorithm
 
-    assert tiny_config().controller.period == pytest.approx(2 * np.pi / 30)
+    assert tiny_config().controller.mlp.period == pytest.approx(2 * np.pi / 30)
     times = jnp.linspace(0.0, CLOCK_PERIOD, 5)
     for period, clocked in ((CLOCK_PERIOD, True), (None, False)):
         algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
-                                                             controller={"period": period}))
+                                                             controller={"mlp": {"period": period}}))
         params = algorithm.init(0).controller
         features = jnp.full((algorithm.n_features,), 0.3)       # a robot whose state holds still
         actuation = np.stack([algorithm.controller.apply(params, features, time=t)
@@ -174,7 +174,7 @@ def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
         np.testing.assert_allclose(actuation[-1], actuation[0], atol=1e-5)
     # The controller takes the configured input gain on the features (0.2 by default).
     for scale in (None, 1.0):
-        changes = {} if scale is None else {"controller": {"feature_scale": scale}}
+        changes = {} if scale is None else {"controller": {"mlp": {"feature_scale": scale}}}
         algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
                                                              **changes))
         assert algorithm.controller.feature_scale == (0.2 if scale is None else scale)
@@ -186,7 +186,8 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
     from litl.loop.algorithm import make_algorithm
 
     robot = litl.robots.get("biped", dx=1 / 64)
-    algorithm = make_algorithm(robot, tiny_config(seeds=1, sim={"steps": 20}, observer={"window": 0.5}))
+    algorithm = make_algorithm(robot, tiny_config(seeds=1, sim={"steps": 20},
+                                                  observer={"vae": {"window": 0.5}}))
     assert algorithm.model.grid_shape == (32, 32)
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     fields = np.asarray(state.buffer.fields[: int(state.buffer.count)])

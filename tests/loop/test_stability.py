@@ -78,7 +78,7 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
 def test_an_observer_update_that_breaks_the_controller_is_refused():
     """loop.update_tolerance: the stepped observer is simulated with the current controller; a
     worse (here: non-finite) result keeps the old observer, and the phase says so."""
-    algorithm = make_algorithm(tiny_robot(), tiny_config(loop={"update_tolerance": 0.0}))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": 0.0}}))
     pieces = algorithm.learn.__self__
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     assert bool(state.stats.update_accepted)                      # the bootstrap is not checked
@@ -94,7 +94,7 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     taken, stats = algorithm.learn(state)
     assert bool(stats.update_accepted) and not _same(taken.observer, state.observer)
     # None: the paper's loop, never checked.
-    unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"update_tolerance": None}))
+    unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": None}}))
     _, stats = unchecked.learn(state)
     assert bool(stats.update_accepted)
 
@@ -105,7 +105,7 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     algorithm = make_algorithm(tiny_robot(), tiny_config(
         observer={"kind": "kmeans"},
         # constant step sizes: every retaken step is exactly half the last
-        loop={"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}))
+        loop={"safeguards": {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}}))
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
     first, metrics = optimize(start)
@@ -125,7 +125,7 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     assert int(state.iteration) == 5
     # Off (None, the paper's loop): never.
     plain = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
-                                                     loop={"step_back_tolerance": None}))
+                                                     loop={"safeguards": {"step_back_tolerance": None}}))
     _, metrics = jax.jit(plain.optimize)(plain.init(0).replace(
         anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32))))
     assert not bool(metrics["stepped_back"])
@@ -137,7 +137,7 @@ def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():
     value in between; optimizer states are those of the constant-step run."""
     def step(fraction, iteration):
         algorithm = make_algorithm(tiny_robot(), tiny_config(
-            observer={"kind": "kmeans"}, loop={"final_learning_rate_fraction": fraction}))
+            observer={"kind": "kmeans"}, loop={"safeguards": {"final_learning_rate_fraction": fraction}}))
         start = algorithm.init(0).replace(iteration=jnp.asarray(iteration, jnp.int32))
         after, _ = jax.jit(algorithm.optimize)(start)
         return jax.tree.map(lambda a, b: a - b, after.controller, start.controller), after

@@ -8,9 +8,9 @@ import pytest
 import litl.robots
 from litl.robots import catalog
 
-# The README's example module (`my_robots.py`); tests/test_cli.py runs it through the CLI.
-README = pathlib.Path(__file__).resolve().parents[2] / "README.md"
-(STOOL_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+# The guide's example module (`my_robots.py`); tests/test_cli.py runs it through the CLI.
+GUIDE = pathlib.Path(__file__).resolve().parents[2] / "docs" / "guide" / "robots.md"
+(STOOL_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
                    if block.startswith("# my_robots.py")]
 
 

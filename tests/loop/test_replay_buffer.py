@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from litl.loop import replay
-from litl.loop.replay import ReplayBuffer
+from litl.loop.replay_buffer import ReplayBuffer
 
 GRID = (4, 3)
 
