@@ -131,10 +131,11 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
       A `RunResult`. Each metrics record has: seed, episode, iteration (within the episode),
       step (global iteration), task_loss and `task/<term>` components, design (per region) with
       design_mean/min/max, recon_loss_train, recon_loss_val, kl, learning_epochs (of the learning
-      phase that produced the observer in use), retrain_change (Table 1: task objective before
-      the latest retraining minus after it plus one optimization step, so negative means
-      retraining cost progress; on iteration 1 of episodes after a learning phase, else null),
-      health steps, skipped (null, or why the iteration changed nothing: one of
+      phase that produced the observer in use), retrain_effect (task objective before the latest
+      retraining minus right after it, before any step: what retraining alone cost, negative
+      meaning lost progress; on iteration 0 of episodes after a learning phase, else null),
+      retrain_change (Table 1: the same after retraining plus one optimization step; on
+      iteration 1), health steps, skipped (null, or why the iteration changed nothing: one of
       `SKIP_REASONS`' values), consecutive_skips, stepped_back and step_scale (see
       `litl.loop.algorithm`: whether the iteration went back to the last accepted iterate, and
       the fraction of a full step taken), and wall_s.
@@ -324,7 +325,7 @@ class _Shell:
                 step = episode * iterations + iteration
                 new = _iteration_records(metrics, stats, np.asarray(state.design), self.seeds,
                                          (episode, iteration, step),
-                                         before if iteration == 1 else None,
+                                         before if iteration < 2 else None,
                                          time.perf_counter() - self.start_time)
                 out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
@@ -371,8 +372,8 @@ class _Shell:
 def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:
     """One `metrics.jsonl` record per seed of an optimization iteration (arrays batched over
     seeds): `position` = (episode, iteration, global step); `stats`, the learning phase whose
-    observer is in use; `before`, the task losses before the latest retraining (for
-    retrain_change, on iteration 1 of an episode; else None)."""
+    observer is in use; `before`, the task losses before the latest retraining (on iterations 0
+    and 1 of an episode, for retrain_effect and retrain_change; else None)."""
     episode, iteration, step = position
     records = []
     for s, seed in enumerate(seeds):
@@ -383,11 +384,13 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
             "design": _json_value(design[s]),
             **_phase_statistics(stats, s),
             "learning_epochs": _json_value(stats.epochs_used[s]),
+            "retrain_effect": None,
             "retrain_change": None,
             "wall_s": round(seconds, 3),
         }
         if before is not None and np.isfinite(before[s]):
-            record["retrain_change"] = float(before[s] - metrics["task_loss"][s])
+            name = "retrain_effect" if iteration == 0 else "retrain_change"
+            record[name] = float(before[s] - metrics["task_loss"][s])
         records.append(record)
     return records
 

@@ -159,8 +159,10 @@ def components(group: Group) -> list[str]:
                    if key.startswith("task/")})
 
 
-def table1(groups: list[Group]) -> list[dict]:
+def table1(groups: list[Group], key: str = "retrain_change") -> list[dict]:
     """The paper's Table 1: `retrain_change` per retraining, mean and standard deviation.
+
+    `key` = ``"retrain_effect"`` gives the same for retraining alone (before any step).
 
     Retraining e is the learning phase after episode e - 1, measured on iteration 1 of episode e
     (see `litl.loop.run`). The standard deviation is the sample one (n - 1; NaN for one seed).
@@ -173,7 +175,7 @@ def table1(groups: list[Group]) -> list[dict]:
         by_retrain: dict[int, list[float]] = {}
         for run in group.runs:
             for record in run.records:
-                change = _value(record, "retrain_change")
+                change = _value(record, key)
                 if math.isfinite(change):
                     by_retrain.setdefault(int(record.get("episode", 0)), []).append(change)
         for retrain in sorted(by_retrain):

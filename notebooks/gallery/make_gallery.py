@@ -1,4 +1,4 @@
-"""Regenerate the README's gallery (`notebooks/gallery/`) from the current code.
+"""Regenerate the gallery (`notebooks/gallery/`) shown on the README from the current code.
 
     python notebooks/gallery/make_gallery.py                   # runs the demo (about 2 min on CPU)
     python notebooks/gallery/make_gallery.py --demo RUN_DIR    # reuse a finished `python -m litl` run
@@ -49,7 +49,7 @@ def draw_robots(path: pathlib.Path) -> None:
 
 
 def run_demo(run_dir: pathlib.Path) -> None:
-    """The README's main command, `python -m litl`, into `run_dir`."""
+    """The main command of the README, `python -m litl`, into `run_dir`."""
     command = [sys.executable, "-m", "litl", f"hydra.run.dir={run_dir}"]
     print("running:", " ".join(command), flush=True)
     subprocess.run(command, check=True)

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.loop import replay
+from litl.loop import replay_buffer
 from litl.loop.replay_buffer import ReplayBuffer
 
 GRID = (4, 3)
@@ -19,50 +19,50 @@ def snapshots(start, k):
 
 def stored_ids(buffer):
     """Set of snapshot ids in the valid slots."""
-    return set(np.asarray(replay.valid_fields(buffer))[:, 0, 0, 0].astype(int).tolist())
+    return set(np.asarray(replay_buffer.valid_fields(buffer))[:, 0, 0, 0].astype(int).tolist())
 
 
 def test_empty_buffer():
     buffer = ReplayBuffer.empty(5, GRID, 2)
     assert buffer.fields.shape == (5,) + GRID + (2,)
     assert buffer.capacity == 5 and int(buffer.count) == 0 and int(buffer.cursor) == 0
-    assert not np.any(replay.valid_mask(buffer))
+    assert not np.any(replay_buffer.valid_mask(buffer))
 
 
 def test_keeps_newest_across_wraparound():
-    add = jax.jit(replay.add)
+    add = jax.jit(replay_buffer.add)
     buffer = ReplayBuffer.empty(5, GRID, 2)
     buffer = add(buffer, snapshots(0, 3))
     assert (int(buffer.count), int(buffer.cursor)) == (3, 3)
     assert stored_ids(buffer) == {0, 1, 2}
-    np.testing.assert_array_equal(replay.valid_mask(buffer), [1, 1, 1, 0, 0])
+    np.testing.assert_array_equal(replay_buffer.valid_mask(buffer), [1, 1, 1, 0, 0])
     buffer = add(buffer, snapshots(3, 3))  # wraps: 0 is overwritten
     assert (int(buffer.count), int(buffer.cursor)) == (5, 1)
     assert stored_ids(buffer) == {1, 2, 3, 4, 5}
     buffer = add(buffer, snapshots(6, 3))
     assert (int(buffer.count), int(buffer.cursor)) == (5, 4)
     assert stored_ids(buffer) == {4, 5, 6, 7, 8}
-    assert np.all(replay.valid_mask(buffer))
+    assert np.all(replay_buffer.valid_mask(buffer))
 
 
 def test_oversize_add_keeps_newest_like_one_at_a_time():
-    buffer = replay.add(ReplayBuffer.empty(4, GRID, 2), snapshots(0, 2))
-    oversize = jax.jit(replay.add)(buffer, snapshots(2, 11))
+    buffer = replay_buffer.add(ReplayBuffer.empty(4, GRID, 2), snapshots(0, 2))
+    oversize = jax.jit(replay_buffer.add)(buffer, snapshots(2, 11))
     assert (int(oversize.count), int(oversize.cursor)) == (4, (2 + 11) % 4)
     assert stored_ids(oversize) == {9, 10, 11, 12}
     one_at_a_time = buffer
     for i in range(2, 13):
-        one_at_a_time = replay.add(one_at_a_time, snapshots(i, 1))
+        one_at_a_time = replay_buffer.add(one_at_a_time, snapshots(i, 1))
     np.testing.assert_array_equal(oversize.fields, one_at_a_time.fields)
     assert int(one_at_a_time.cursor) == int(oversize.cursor)
 
 
 def test_replace_with_keeps_only_latest_and_clear_empties():
-    buffer = replay.add(ReplayBuffer.empty(6, GRID, 2), snapshots(0, 5))
-    latest = jax.jit(replay.replace_with)(buffer, snapshots(100, 2))
+    buffer = replay_buffer.add(ReplayBuffer.empty(6, GRID, 2), snapshots(0, 5))
+    latest = jax.jit(replay_buffer.replace_with)(buffer, snapshots(100, 2))
     assert int(latest.count) == 2 and stored_ids(latest) == {100, 101}
-    assert stored_ids(replay.replace_with(buffer, snapshots(200, 9))) == set(range(203, 209))
-    cleared = replay.clear(buffer)
+    assert stored_ids(replay_buffer.replace_with(buffer, snapshots(200, 9))) == set(range(203, 209))
+    cleared = replay_buffer.clear(buffer)
     empty = ReplayBuffer.empty(6, GRID, 2)
     for a, b in zip(jax.tree.leaves(cleared), jax.tree.leaves(empty)):
         np.testing.assert_array_equal(a, b)
@@ -71,9 +71,9 @@ def test_replace_with_keeps_only_latest_and_clear_empties():
 def test_vmapped_over_seeds_equals_separate_buffers():
     buffers = jax.vmap(lambda _: ReplayBuffer.empty(3, GRID, 2))(jnp.arange(2))
     batch = jnp.stack([snapshots(0, 4), snapshots(10, 4)])
-    added = jax.jit(jax.vmap(replay.add))(buffers, batch)
+    added = jax.jit(jax.vmap(replay_buffer.add))(buffers, batch)
     for seed in range(2):
-        single = replay.add(ReplayBuffer.empty(3, GRID, 2), batch[seed])
+        single = replay_buffer.add(ReplayBuffer.empty(3, GRID, 2), batch[seed])
         for a, b in zip(jax.tree.leaves(added), jax.tree.leaves(single)):
             np.testing.assert_array_equal(a[seed], b)
 
@@ -88,23 +88,23 @@ def test_bad_inputs():
         ReplayBuffer.empty(4, (8,), 1)
     buffer = ReplayBuffer.empty(4, GRID, 2)
     with pytest.raises(ValueError, match=r"snapshots must have shape \(k, 4, 3, 2\)"):
-        replay.add(buffer, jnp.zeros((2, 4, 4, 2)))
+        replay_buffer.add(buffer, jnp.zeros((2, 4, 4, 2)))
     with pytest.raises(ValueError, match="snapshots must have shape"):
-        replay.replace_with(buffer, jnp.zeros(GRID + (2,)))  # a single field without the k axis
+        replay_buffer.replace_with(buffer, jnp.zeros(GRID + (2,)))  # a single field without the k axis
 
 
 def test_velocities_are_kept_beside_their_snapshots():
     buffer = ReplayBuffer.empty(4, GRID, 2)
     given = jnp.asarray([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
-    buffer = jax.jit(replay.add)(buffer, snapshots(0, 3), given)
-    buffer = replay.add(buffer, snapshots(3, 3), given + 10)       # wraps: slots 3, 0, 1
+    buffer = jax.jit(replay_buffer.add)(buffer, snapshots(0, 3), given)
+    buffer = replay_buffer.add(buffer, snapshots(3, 3), given + 10)       # wraps: slots 3, 0, 1
     np.testing.assert_array_equal(buffer.velocities,
                                   [[13.0, 14.0], [15.0, 16.0], [5.0, 6.0], [11.0, 12.0]])
     # Without velocities a snapshot's own occupied-node mean stands in.
     field = np.zeros((1,) + GRID + (2,), np.float32)
     field[0, 1:3, 0] = (1.0, -2.0)
-    alone = replay.add(ReplayBuffer.empty(2, GRID, 2), field)
+    alone = replay_buffer.add(ReplayBuffer.empty(2, GRID, 2), field)
     np.testing.assert_allclose(alone.velocities[0], [1.0, -2.0])
     with pytest.raises(ValueError, match="velocities must have shape"):
-        replay.add(alone, snapshots(0, 2), given)
-    assert not np.any(replay.clear(buffer).velocities)
+        replay_buffer.add(alone, snapshots(0, 2), given)
+    assert not np.any(replay_buffer.clear(buffer).velocities)

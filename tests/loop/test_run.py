@@ -215,7 +215,7 @@ def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
 
 
 def test_one_shot_observer_without_replay(tmp_path):
-    config = tiny_config(loop={"schedule": "one_shot", "replay": False})
+    config = tiny_config(loop={"schedule": "one_shot", "replay_buffer": False})
     result = run(tiny_robot(), config, tmp_path, progress=False)
     for seed in (0, 1):
         stats = {(r["recon_loss_val"], r["learning_epochs"]) for r in result.metrics if r["seed"] == seed}

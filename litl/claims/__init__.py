@@ -1,0 +1,19 @@
+"""The paper's claims, each measured and judged: one command runs them all.
+
+    python -m litl.claims                      # everything, 10 seeds at demo resolution (hours)
+    python -m litl.claims --panels fig4a --methods paper
+    python -m litl.claims --scale smoke        # the whole suite shrunk to seconds per run
+    python -m litl.claims --report-only        # judge what has finished so far
+
+Runs go to `OUT/runs/<method>/<panel>/<variant>` (a second call resumes them); `OUT/claims.md`
+and `claims.csv` hold one row per claim and method (means with 90% intervals, a one-sided Welch
+p-value, a verdict by a stated rule, see `litl.claims.verdicts`), `table1.md` the paper's Table 1
+from the biped's runs, and `fig4a.png` ... `fig4d.png` the panels with 90% bands.
+"""
+
+from litl.claims.cli import main
+from litl.claims.suite import PANELS, SCALES, Cell, ClaimsError, Panel, cells, run_suite
+from litl.claims.verdicts import CLAIMS, Claim, Verdict, judge, welch_p_lower
+
+__all__ = ["CLAIMS", "PANELS", "SCALES", "Cell", "Claim", "ClaimsError", "Panel", "Verdict",
+           "cells", "judge", "main", "run_suite", "welch_p_lower"]

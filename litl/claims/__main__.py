@@ -1,0 +1,5 @@
+import sys
+
+from litl.claims.cli import main
+
+sys.exit(main())

@@ -1,0 +1,99 @@
+"""`python -m litl.claims`: run the paper's claims suite (resuming it) and write the verdicts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import shlex
+import sys
+
+from litl.claims.suite import PANEL_NAMES, SCALES, cells, run_suite
+from litl.claims.tables import (
+    claims_markdown, load_groups, plot_panels, table1_markdown, verdicts, write_csv,
+)
+from litl.errors import UserError
+
+
+def _names(text: str) -> tuple[str, ...]:
+    return tuple(name.strip() for name in text.split(",") if name.strip())
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m litl.claims",
+        description="Run every paper claim's runs (arm, biped, elephant, bunny; both methods; "
+                    "10 seeds each at demo resolution), resuming what already ran, then write "
+                    "claims.md, claims.csv, table1.md and one figure per paper panel into OUT.")
+    parser.add_argument("--out", default="claims", help="where runs and results go "
+                        "(default: ./claims; runs under OUT/runs/<method>/<panel>/<variant>)")
+    parser.add_argument("--panels", type=_names, default=PANEL_NAMES,
+                        help=f"comma-separated panels (default: all of {','.join(PANEL_NAMES)})")
+    parser.add_argument("--methods", type=_names, default=("litl", "paper"),
+                        help="comma-separated methods (default: litl,paper)")
+    parser.add_argument("--scale", choices=sorted(SCALES), default="demo",
+                        help="demo: the suite of record (default); smoke: seconds per run")
+    parser.add_argument("--seeds", type=int, default=None,
+                        help="seeds per run (default: the scale's, 10 at demo)")
+    parser.add_argument("--level", type=float, default=0.9,
+                        help="confidence level of intervals and bands (default: 0.9)")
+    parser.add_argument("--report-only", action="store_true",
+                        help="run nothing; write the results of what has finished")
+    parser.add_argument("--list", action="store_true",
+                        help="print each run's command line and whether it has finished")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    command = " ".join(["python -m litl.claims", *map(shlex.quote, sys.argv[1:] if argv is None
+                                                        else argv)])
+    try:
+        return _main(args, command)
+    except (UserError, OSError) as error:
+        parser.exit(2, f"{parser.prog}: error: {error}\n")
+
+
+def _main(args, command: str) -> int:
+    from litl.app import compose
+    from litl.claims.suite import ClaimsError, finished_records
+
+    scale = SCALES[args.scale]
+    seeds = scale.seeds if args.seeds is None else args.seeds
+    if seeds < 2:
+        raise ClaimsError(f"--seeds must be at least 2 (a claim needs an interval); got {seeds}")
+    if not 0 < args.level < 1:
+        raise ClaimsError(f"--level must lie in (0, 1), e.g. 0.9; got {args.level}")
+    suite = cells(args.panels, args.methods)
+    out = pathlib.Path(args.out)
+    configs = {}
+
+    def config_of(cell):
+        if cell.name not in configs:
+            configs[cell.name] = compose(cell.overrides(scale, seeds))
+        return configs[cell.name]
+
+    if args.list:
+        for cell in suite:
+            done = finished_records(cell.run_dir(out))
+            print(f"{cell.name}: {done} records  python -m litl "
+                  f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}")
+        return 0
+    if not args.report_only:
+        run_suite(out, suite, scale, seeds)
+    groups, unfinished = load_groups(out, suite, config_of)
+    results = verdicts(groups, args.methods, args.level)
+    timings_path = out / "timings.json"
+    timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "claims.md").write_text(
+        claims_markdown(results, args.level, command, unfinished, timings))
+    write_csv(results, out / "claims.csv")
+    (out / "table1.md").write_text(table1_markdown(groups, args.methods))
+    plot_panels(groups, args.methods, out, args.level)
+    width = max((len(v.claim.id) for v in results), default=5)
+    for v in results:
+        print(f"{v.claim.id:<{width}}  {v.method:<5}  {v.verdict}")
+    print(out / "claims.md")
+    return 0

@@ -1,0 +1,188 @@
+"""The runs behind the paper's claims: which robots, variants and methods, and running them.
+
+A `Panel` is one paper figure panel (Fig. 4a-d): a robot's experiment preset and the variants it
+compares. A `Cell` is one run of it: a panel's variant under one method, all its seeds in one run
+directory `<out>/runs/<method>/<panel>/<variant>`. `run_suite` runs every cell that has not
+finished yet (a killed suite resumes where it stopped, a finished cell is not touched).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import pathlib
+import time
+
+from litl.config import Method
+from litl.errors import UserError
+
+
+class ClaimsError(UserError, ValueError):
+    """A claims suite that cannot be run or reported as asked; the message says what to change."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """One curve of a panel.
+
+    Attributes:
+      name: the variant's name in the suite (also its run directory's name).
+      overrides: the Hydra overrides that make it (``variant=vae``, ``size=s4``).
+    """
+
+    name: str
+    overrides: tuple[str, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Panel:
+    """One panel of the paper's figures, as runs.
+
+    Attributes:
+      name: e.g. ``"fig4a"``.
+      title: what the panel shows, for figures and tables.
+      experiment: the experiment preset the runs start from (``litl/conf/experiment``).
+      variants: its curves.
+    """
+
+    name: str
+    title: str
+    experiment: str
+    variants: tuple[Variant, ...]
+
+    def variant(self, name: str) -> Variant:
+        for variant in self.variants:
+            if variant.name == name:
+                return variant
+        raise KeyError(f"{self.name} has no variant {name!r}")
+
+
+def _variants(*names: str) -> tuple[Variant, ...]:
+    return tuple(Variant(name, (f"variant={name}",)) for name in names)
+
+
+def _sized(sizes: tuple[int, ...], *names: str) -> tuple[Variant, ...]:
+    return tuple(Variant(f"{name}_s{size}", (f"variant={name}", f"size=s{size}"))
+                 for size in sizes for name in names)
+
+
+PANELS = (
+    Panel("fig4a", "Fig. 4a: arm (reach, fixed base, no gravity; control only)", "fig4a_arm",
+          _variants("vae", "kmeans", "vae_one_shot", "vae_no_replay")),
+    Panel("fig4b", "Fig. 4b: biped (run right; co-design)", "fig4b_biped",
+          _variants("vae", "kmeans", "sinusoid")),
+    Panel("fig4c", "Fig. 4c: elephant (walk right, trunk reaches; control only)",
+          "fig4c_elephant", _sized((4, 8), "vae", "kmeans")),
+    Panel("fig4d", "Fig. 4d: bunny (walk, two hands reach; control only)", "fig4d_bunny",
+          _variants("vae", "kmeans", "sinusoid")),
+)
+PANEL_NAMES = tuple(panel.name for panel in PANELS)
+
+
+@dataclasses.dataclass(frozen=True)
+class Scale:
+    """How big every run of the suite is.
+
+    Attributes:
+      name: ``"demo"`` (the suite of record) or ``"smoke"`` (seconds per run, for tests).
+      seeds: seeds per cell (the paper: 10).
+      overrides: what shrinks a paper preset to this scale.
+    """
+
+    name: str
+    seeds: int
+    overrides: tuple[str, ...]
+
+
+SCALES = {
+    # dx 1/64, 1 s rollouts, 10 episodes x 10 iterations: the biped comparison's size.
+    "demo": Scale("demo", 10, ("robot.resolution=demo", "loop.episodes=10", "loop.iterations=10")),
+    "smoke": Scale("smoke", 2, ("+scale=smoke",)),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One run of the suite: a panel's variant under a method, every seed in one directory."""
+
+    panel: Panel
+    variant: Variant
+    method: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.method}/{self.panel.name}/{self.variant.name}"
+
+    def run_dir(self, out: pathlib.Path) -> pathlib.Path:
+        return pathlib.Path(out) / "runs" / self.method / self.panel.name / self.variant.name
+
+    def overrides(self, scale: Scale, seeds: int) -> list[str]:
+        """The command line that makes this cell: ``python -m litl <overrides>``."""
+        return [f"experiment={self.panel.experiment}", *self.variant.overrides,
+                f"method={self.method}", *scale.overrides, f"seeds={seeds}",
+                "output.pictures=false", "output.animation=false", "output.progress=false"]
+
+
+def cells(panels=PANEL_NAMES, methods=("litl", "paper")) -> list[Cell]:
+    """The suite's cells for the named panels and methods, method by method."""
+    unknown = [name for name in panels if name not in PANEL_NAMES]
+    if unknown:
+        raise ClaimsError(f"unknown panel(s) {unknown}; choose from {list(PANEL_NAMES)} "
+                          f"(--panels fig4a,fig4b)")
+    known = [m.value for m in Method]
+    bad = [m for m in methods if m not in known]
+    if bad:
+        raise ClaimsError(f"unknown method(s) {bad}; choose from {known} (--methods litl,paper)")
+    if not panels or not methods:
+        raise ClaimsError("the suite is empty: name at least one panel and one method")
+    return [Cell(panel, variant, method) for method in methods
+            for panel in PANELS if panel.name in panels for variant in panel.variants]
+
+
+def expected_records(config) -> int:
+    """metrics.jsonl lines of a finished run: one per seed and optimization iteration."""
+    return config.seeds * config.loop.episodes * config.loop.iterations
+
+
+def finished_records(run_dir: pathlib.Path) -> int:
+    path = run_dir / "metrics.jsonl"
+    if not path.exists():
+        return 0
+    with open(path) as file:
+        return sum(1 for line in file if line.strip())
+
+
+def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> dict:
+    """Run every unfinished cell of `suite` under `out`, one after another.
+
+    Each cell's wall time is added to `<out>/timings.json` ({cell name: seconds}, the time of
+    the run that finished it; a cell resumed after a kill counts only its last part).
+
+    Returns:
+      {cell name: "ran" | "done already"}.
+    """
+    import jax
+
+    from litl.app import compose, run_experiment
+
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    timings_path = out / "timings.json"
+    timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
+    status = {}
+    for number, cell in enumerate(suite, 1):
+        overrides = cell.overrides(scale, seeds)
+        config = compose(overrides)
+        run_dir = cell.run_dir(out)
+        if finished_records(run_dir) >= expected_records(config):
+            status[cell.name] = "done already"
+            continue
+        say(f"litl.claims: [{number}/{len(suite)}] {cell.name}: python -m litl "
+            f"{' '.join(overrides)} hydra.run.dir={run_dir}")
+        start = time.perf_counter()
+        run_experiment(config, run_dir)
+        timings[cell.name] = round(time.perf_counter() - start, 1)
+        timings_path.write_text(json.dumps(timings, indent=1) + "\n")
+        status[cell.name] = "ran"
+        jax.clear_caches()     # one cell's compiled programs are no use to the next
+    return status

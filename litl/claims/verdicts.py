@@ -1,0 +1,221 @@
+"""The paper's claims as tests on measured runs, each with a stated rule and a verdict.
+
+Every comparison uses a seed's *final task loss*: the mean of its last 10 optimization
+iterations (`litl.report.summary.FINAL_WINDOW`), lower is better. Rules (ALPHA = 0.05, one-sided,
+the same 5% tail on each side as the paper's 90% intervals):
+
+- "A beats B" holds when a one-sided Welch t-test finds A's mean lower (p < ALPHA), is
+  contradicted when the opposite one-sided test finds it higher (p < ALPHA), and is not resolved
+  otherwise.
+- "A is competitive with B" is contradicted when A is worse with p < ALPHA; it holds when it is
+  not, and A's mean is within MARGIN (10%) of B's |mean| or better; otherwise not resolved.
+- Table 1, "one optimization step cancels retraining's backward progress": per seed, the mean
+  of `retrain_change` over retrainings (the change of the task objective from before a
+  retraining to after it and one step; negative = progress lost) against MARGIN times the
+  progress an episode makes (mean decrease of the task loss from an episode's first iteration to
+  its last). Holds when the 90% interval of the mean change lies above -MARGIN x progress, is
+  contradicted when it lies below, not resolved when it straddles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from litl.report.runs import Group
+from litl.report.stats import confidence_band, final_window_values
+
+ALPHA = 0.05
+MARGIN = 0.1
+FINAL_WINDOW = 10
+HOLDS, NOT_RESOLVED, CONTRADICTED, NO_DATA = "holds", "not resolved", "contradicted", "no data"
+
+
+@dataclasses.dataclass(frozen=True)
+class Claim:
+    """One claim of the paper (or one litl adds), as a test between two variants of a panel.
+
+    Attributes:
+      id: short name, e.g. ``"4a-kmeans-competitive"``.
+      panel: the `litl.claims.suite.Panel` name it is measured on.
+      statement: the claim in words.
+      kind: ``"beats"`` (a's final task loss lower than b's), ``"competitive"`` (a not worse
+        than b) or ``"retraining"`` (Table 1, on variant a alone).
+      a, b: variant names (b is None for ``"retraining"``).
+      source: where the claim comes from (the paper's section, or litl).
+    """
+
+    id: str
+    panel: str
+    statement: str
+    kind: str
+    a: str
+    b: str | None = None
+    source: str = "paper"
+
+
+CLAIMS = (
+    Claim("4a-kmeans-competitive", "fig4a", "on the arm, k-means is competitive with the VAE",
+          "competitive", "kmeans", "vae", "paper, Sec. 5 (2D Arm)"),
+    Claim("4a-one-shot-fails", "fig4a",
+          "on the arm, training the observer once (one-shot) does worse than retraining it",
+          "beats", "vae", "vae_one_shot", "paper, Sec. 5 (2D Arm), Fig. 4a"),
+    Claim("4a-no-replay-fails", "fig4a",
+          "on the arm, the VAE without a replay buffer does worse than with it",
+          "beats", "vae", "vae_no_replay", "paper, Sec. 5 (2D Arm), Fig. 4a"),
+    Claim("4b-vae-beats-kmeans", "fig4b", "on the biped, the VAE beats k-means",
+          "beats", "vae", "kmeans", "paper, Fig. 4b"),
+    Claim("4b-vae-beats-open-loop", "fig4b",
+          "on the biped, the VAE's closed loop beats open-loop sinusoids",
+          "beats", "vae", "sinusoid", "litl's baseline (not in the paper)"),
+    Claim("table1-retraining", "fig4b",
+          "on the biped, one optimization step cancels retraining's backward progress",
+          "retraining", "vae", None, "paper, Table 1"),
+    Claim("4c-vae-beats-kmeans-4", "fig4c",
+          "on the elephant, the VAE beats k-means at size 4",
+          "beats", "vae_s4", "kmeans_s4", "paper, Fig. 4c"),
+    Claim("4c-vae-beats-kmeans-8", "fig4c",
+          "on the elephant, the VAE beats k-means at size 8",
+          "beats", "vae_s8", "kmeans_s8", "paper, Fig. 4c"),
+    Claim("4d-vae-beats-kmeans", "fig4d", "on the bunny, the VAE beats k-means",
+          "beats", "vae", "kmeans", "paper, Fig. 4d"),
+    Claim("4d-vae-beats-open-loop", "fig4d",
+          "on the bunny, the VAE's closed loop beats open-loop sinusoids",
+          "beats", "vae", "sinusoid", "litl's baseline (not in the paper)"),
+)
+
+
+def welch_p_lower(a, b) -> float:
+    """One-sided Welch t-test p-value for mean(a) < mean(b); NaN with fewer than 2 values in
+    either, or no spread in both."""
+    from scipy.stats import ttest_ind
+
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+        return math.nan
+    return float(ttest_ind(a, b, equal_var=False, alternative="less").pvalue)
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """A mean over seeds with its two-sided interval."""
+
+    mean: float
+    low: float
+    high: float
+    n: int
+
+
+def estimate(values, level: float = 0.9) -> Estimate:
+    values = np.asarray(values, np.float64)
+    mean, low, high = confidence_band(values, level)
+    return Estimate(float(mean), float(low), float(high), int(np.isfinite(values).sum()))
+
+
+def final_losses(group: Group) -> np.ndarray:
+    """(seeds,) each seed's final task loss (mean of its last FINAL_WINDOW iterations)."""
+    return final_window_values(group, "task_loss", FINAL_WINDOW)
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """A claim measured under one method.
+
+    Attributes:
+      claim: the claim.
+      method: ``"litl"`` or ``"paper"``.
+      a, b: the compared quantities (final task losses; for Table 1, a is the remaining change
+        after retraining plus one step and b the progress per episode).
+      p: the one-sided Welch p-value of the test that would make the claim hold (NaN: none).
+      verdict: HOLDS, NOT_RESOLVED, CONTRADICTED or NO_DATA.
+      rule: the rule applied, in words.
+    """
+
+    claim: Claim
+    method: str
+    a: Estimate | None
+    b: Estimate | None
+    p: float
+    verdict: str
+    rule: str
+
+
+def _compare(claim: Claim, a_values, b_values, level: float):
+    a, b = estimate(a_values, level), estimate(b_values, level)
+    better = welch_p_lower(a_values, b_values)
+    worse = welch_p_lower(b_values, a_values)
+    if a.n < 2 or b.n < 2:
+        return a, b, better, NO_DATA, "needs at least 2 seeds with a final task loss in each"
+    if claim.kind == "beats":
+        verdict = (HOLDS if better < ALPHA else CONTRADICTED if worse < ALPHA else NOT_RESOLVED)
+        rule = (f"holds if {claim.a} is lower with one-sided Welch p < {ALPHA}; contradicted if "
+                f"it is higher with p < {ALPHA}")
+        return a, b, better, verdict, rule
+    within = a.mean <= b.mean + MARGIN * abs(b.mean)
+    verdict = CONTRADICTED if worse < ALPHA else HOLDS if within else NOT_RESOLVED
+    rule = (f"contradicted if {claim.a} is higher with one-sided Welch p < {ALPHA}; else holds "
+            f"if its mean is within {MARGIN:.0%} of {claim.b}'s |mean| or lower")
+    return a, b, worse, verdict, rule
+
+
+def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
+    """Per seed: mean `retrain_change` over retrainings, and mean progress per episode (task
+    loss at an episode's first iteration minus at its last; positive = improving)."""
+    changes: dict[tuple[int, int], list[float]] = {}
+    progress: dict[tuple[int, int], list[float]] = {}
+    for index, run in enumerate(group.runs):
+        episodes: dict[tuple[int, int], dict[int, float]] = {}
+        for record in run.records:
+            key = (index, int(record["seed"]))
+            change = record.get("retrain_change")
+            if isinstance(change, (int, float)) and math.isfinite(change):
+                changes.setdefault(key, []).append(float(change))
+            loss = record.get("task_loss")
+            if isinstance(loss, (int, float)) and math.isfinite(loss):
+                episodes.setdefault((key[1], int(record["episode"])), {})[
+                    int(record["iteration"])] = float(loss)
+        for (seed, _), losses in episodes.items():
+            if len(losses) > 1:
+                progress.setdefault((index, seed), []).append(
+                    losses[min(losses)] - losses[max(losses)])
+    keys = sorted(set(changes) | set(progress))
+    mean = lambda values: float(np.mean(values)) if values else math.nan  # noqa: E731
+    return (np.array([mean(changes.get(k, [])) for k in keys]),
+            np.array([mean(progress.get(k, [])) for k in keys]))
+
+
+def _retraining(claim: Claim, group: Group, level: float):
+    change_values, progress_values = retraining_effects(group)
+    change, progress = estimate(change_values, level), estimate(progress_values, level)
+    rule = (f"holds if the {level:.0%} interval of the mean change lies above -{MARGIN:g} x the "
+            f"mean progress per episode; contradicted if it lies below; else not resolved")
+    if change.n < 2 or not math.isfinite(progress.mean):
+        return change, progress, math.nan, NO_DATA, "needs retrainings in at least 2 seeds"
+    threshold = -MARGIN * max(progress.mean, 0.0)
+    verdict = (HOLDS if change.low > threshold else CONTRADICTED if change.high < threshold
+               else NOT_RESOLVED)
+    # The p-value of "the mean change is above the threshold" (one-sample, one-sided).
+    from scipy.stats import ttest_1samp
+
+    finite = change_values[np.isfinite(change_values)]
+    p = (float(ttest_1samp(finite, threshold, alternative="greater").pvalue)
+         if np.ptp(finite) > 0 else math.nan)
+    return change, progress, p, verdict, rule
+
+
+def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.9) -> Verdict:
+    """The verdict on `claim` from `groups` ({variant name: its runs}) of one method."""
+    missing = [name for name in (claim.a, claim.b) if name is not None and name not in groups]
+    if missing:
+        return Verdict(claim, method, None, None, math.nan, NO_DATA,
+                       f"no finished runs of {', '.join(missing)}")
+    if claim.kind == "retraining":
+        result = _retraining(claim, groups[claim.a], level)
+    else:
+        result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]),
+                          level)
+    return Verdict(claim, method, *result)

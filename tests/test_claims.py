@@ -1,0 +1,125 @@
+"""`python -m litl.claims`: verdict rules on made-up seeds, and the whole command at smoke size."""
+
+import csv
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from litl.claims import CLAIMS, cells, judge, welch_p_lower
+from litl.claims.cli import main
+from litl.claims.verdicts import CONTRADICTED, HOLDS, NO_DATA, NOT_RESOLVED
+from litl.report.runs import Group, Run
+
+
+def group(name: str, finals, iterations: int = 10, retrain=None) -> Group:
+    """A group whose seed s ends at `finals[s]` (constant over its last iterations), with
+    `retrain[s]` as every retrain_change if given."""
+    records = []
+    for seed, final in enumerate(finals):
+        for step in range(2 * iterations):
+            episode, iteration = divmod(step, iterations)
+            loss = final + (1.0 if episode == 0 else 0.0) * (iterations - iteration) / iterations
+            records.append({"seed": seed, "step": step, "episode": episode,
+                            "iteration": iteration, "task_loss": loss,
+                            "retrain_change": (retrain[seed] if retrain is not None and
+                                               episode > 0 and iteration == 1 else None)})
+    return Group("biped", name, (Run(pathlib.Path(name), {"robot": "biped"}, tuple(records)),))
+
+
+def claim(claim_id):
+    return next(c for c in CLAIMS if c.id == claim_id)
+
+
+LOW = [-1.0, -1.1, -0.9, -1.05, -0.95]
+HIGH = [-0.5, -0.6, -0.4, -0.55, -0.45]
+SAME = [-0.98, -1.12, -0.88, -1.02, -0.97]
+
+
+def test_welch_p_value_matches_a_hand_computed_one():
+    # Two samples of 3 with equal variance 1 and means 0 and 3: t = -3 / sqrt(2/3),
+    # Welch's dof = 4, one-sided p = P(T_4 < -3.674) = 0.0107.
+    assert welch_p_lower([-1, 0, 1], [2, 3, 4]) == pytest.approx(0.01066, abs=2e-4)
+    assert np.isnan(welch_p_lower([1.0], [2.0, 3.0]))
+
+
+@pytest.mark.parametrize("a, b, verdict", [(LOW, HIGH, HOLDS), (HIGH, LOW, CONTRADICTED),
+                                           (SAME, LOW, NOT_RESOLVED)])
+def test_beats_holds_is_contradicted_or_unresolved_by_the_seeds(a, b, verdict):
+    result = judge(claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", a),
+                                                          "kmeans": group("kmeans", b)})
+    assert result.verdict == verdict
+    assert result.a.mean == pytest.approx(np.mean(a))
+    assert result.a.low < result.a.mean < result.a.high
+
+
+@pytest.mark.parametrize("a, b, verdict", [(SAME, LOW, HOLDS), (HIGH, LOW, CONTRADICTED),
+                                           ([-0.8, -1.2, -0.2, -1.3, -0.5], LOW, NOT_RESOLVED)])
+def test_competitive_needs_no_significant_loss_and_a_close_mean(a, b, verdict):
+    result = judge(claim("4a-kmeans-competitive"), "paper",
+                   {"kmeans": group("kmeans", a), "vae": group("vae", b)})
+    assert result.verdict == verdict
+
+
+@pytest.mark.parametrize("changes, verdict", [
+    ([0.001, -0.002, 0.0, 0.001, -0.001], HOLDS),          # next to 1.0 progress per episode
+    ([-0.5, -0.6, -0.55, -0.45, -0.5], CONTRADICTED),
+    ([0.1, -0.4, 0.05, -0.3, 0.0], NOT_RESOLVED)])
+def test_retraining_claim_weighs_the_change_against_an_episodes_progress(changes, verdict):
+    result = judge(claim("table1-retraining"), "litl",
+                   {"vae": group("vae", LOW, retrain=changes)})
+    assert result.verdict == verdict
+    assert result.b.mean == pytest.approx(0.45)   # (0.9 in episode 0 + 0 in episode 1) / 2
+
+
+def test_a_claim_without_runs_says_no_data():
+    result = judge(claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", LOW)})
+    assert result.verdict == NO_DATA and "kmeans" in result.rule
+    one_seed = judge(claim("4b-vae-beats-kmeans"), "litl",
+                     {"vae": group("vae", LOW[:1]), "kmeans": group("kmeans", HIGH)})
+    assert one_seed.verdict == NO_DATA
+
+
+def test_every_claim_names_variants_its_panel_runs():
+    for c in CLAIMS:
+        panel_cells = [cell for cell in cells() if cell.panel.name == c.panel]
+        names = {cell.variant.name for cell in panel_cells}
+        assert c.a in names and (c.b is None or c.b in names), c.id
+    assert {cell.method for cell in cells()} == {"litl", "paper"}
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--panels", "fig9"], "unknown panel"), (["--methods", "mine"], "unknown method"),
+    (["--seeds", "1"], "at least 2")])
+def test_bad_arguments_are_refused_before_anything_runs(tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--out", str(tmp_path / "out"), "--scale", "smoke", *argv])
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
+    out = tmp_path / "claims"
+    argv = ["--out", str(out), "--scale", "smoke", "--panels", "fig4b", "--methods", "paper"]
+    assert main(argv) == 0
+    for name in ("claims.md", "claims.csv", "table1.md", "fig4b.png", "timings.json"):
+        assert (out / name).stat().st_size > 0, name
+    rows = list(csv.DictReader(open(out / "claims.csv")))
+    assert [r["claim"] for r in rows] == [c.id for c in CLAIMS if c.panel == "fig4b"]
+    assert all(r["method"] == "paper" and r["verdict"] for r in rows)
+    assert all(int(r["a_n"]) == 2 for r in rows)
+    timings = json.loads((out / "timings.json").read_text())
+    assert set(timings) == {"paper/fig4b/vae", "paper/fig4b/kmeans", "paper/fig4b/sinusoid"}
+    run = json.loads((out / "runs/paper/fig4b/vae/run.json").read_text())
+    assert run["config"]["method"] == "paper" and run["config"]["seeds"] == 2
+    metrics = (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text()
+    capsys.readouterr()
+    # A second call finds every run finished: it runs nothing and writes the same verdicts.
+    assert main(argv) == 0
+    assert "litl.claims: [" not in capsys.readouterr().out
+    assert (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text() == metrics
+    assert list(csv.DictReader(open(out / "claims.csv"))) == rows
+    assert "Table 1" in (out / "table1.md").read_text()
