@@ -169,6 +169,9 @@ class Algorithm:
     policy: Callable
     controller: MLPController | SinusoidController
     field: Callable
+    # simulate(controller, design, observer, initial=None) -> (task loss, (components,
+    # trajectory)): one differentiable rollout, from the robot's initial state or `initial`.
+    simulate: Callable
 
     @property
     def n_features(self) -> int:
@@ -221,7 +224,8 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, optimize=pieces.optimize,
                      learn=pieces.learn, evaluate=pieces.evaluate, steps=steps,
                      observer=observer, schedule=schedule, policy=pieces.policy,
-                     controller=pieces.controller, field=pieces.field)
+                     controller=pieces.controller, field=pieces.field,
+                     simulate=pieces.simulate)
 
 
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
@@ -312,9 +316,10 @@ class _Pieces:
         return make_rollout(self.scene.config, self.scene.body, self.policy, self.steps,
                             snapshot_stride=self.stride, observe=centroid, field=self.field)
 
-    def simulate(self, controller_params, design, observer):
-        """(task loss, (its components, the trajectory)) of one rollout from the initial state."""
-        initial = self.scene.state
+    def simulate(self, controller_params, design, observer, initial=None):
+        """(task loss, (its components, the trajectory)) of one rollout from the robot's initial
+        state, or from `initial` (a `SimState` like it, e.g. with other velocities)."""
+        initial = self.scene.state if initial is None else initial
         final, trajectory = self.rollout((controller_params, observer),
                                          self.robot.design_space.to_design(design), initial)
         total, components = self.robot.task_loss()(initial, final)

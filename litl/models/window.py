@@ -83,5 +83,6 @@ class Window:
         """(*grid_shape, c) field -> (*shape, c) nodes of the window around `centre`."""
         if self.whole_grid:
             return field
-        start = tuple(self.corner(centre)) + (0,)
+        # All int32: a Python 0 would be int64 under jax_enable_x64 (float64 runs).
+        start = tuple(self.corner(centre)) + (jnp.zeros((), jnp.int32),)
         return jax.lax.dynamic_slice(field, start, self.shape + (field.shape[-1],))

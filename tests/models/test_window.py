@@ -42,3 +42,12 @@ def test_crop_is_jittable_vmappable_and_passes_gradients_to_the_window_only():
     grad = jax.grad(lambda f: jnp.sum(window.crop(f, centres[1])))(fields[0])
     assert float(grad.sum()) == 32 * 32 * 2
     assert float(grad[16:48, 16:48].sum()) == 32 * 32 * 2
+
+
+def test_crop_works_in_float64():
+    # Under jax_enable_x64 a Python int index is int64; the window's indices must agree in type.
+    window = Window.around((64, 64), 1 / 64, 0.5)
+    with jax.enable_x64(True):
+        field = jnp.arange(64 * 64 * 2, dtype=jnp.float64).reshape(64, 64, 2)
+        crop = jax.jit(window.crop)(field, jnp.array([0.5, 0.25], jnp.float64))
+        np.testing.assert_array_equal(crop, field[16:48, 0:32])
