@@ -24,7 +24,7 @@ import dataclasses
 import enum
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Tuple
+from typing import Optional, Tuple, Union
 
 from litl.errors import UserError
 
@@ -394,14 +394,38 @@ class ControllerConfig(_Checked):
 
 @dataclass(frozen=True)
 class SimSettings(_Checked):
-    """Attributes: steps per rollout (None: the robot's episode length); dtype of the run."""
+    """The rollouts' length, float type and memory.
+
+    Attributes:
+      steps: steps per rollout (None: the robot's episode length).
+      dtype: float type of the run (float64 needs `jax.enable_x64`).
+      checkpoint_every: "auto" (segment checkpointing only where the backward pass would not
+        fit `memory_budget`, with segments of about √steps steps), K (always, K steps), or None
+        (never). It changes memory and time, never results.
+      memory_budget: GiB the rollouts' backward passes may keep on a device, all vmapped seeds
+        together; None: half the device's memory (a GPU's own, or the RAM).
+    """
 
     KEY = "sim"
     steps: Optional[int] = None
     dtype: DType = DType.float32
+    checkpoint_every: Optional[Union[int, str]] = "auto"
+    memory_budget: Optional[float] = None
 
     def check(self):
         self._positive_ints("steps", optional=("steps",))
+        every = self.checkpoint_every
+        if every != "auto" and every is not None and (
+                isinstance(every, bool) or not isinstance(every, int) or every < 1):
+            self._invalid("checkpoint_every", "must be auto, a positive number of steps, or "
+                                              "null for never")
+        self._positive_numbers("memory_budget", optional=("memory_budget",))
+
+    def budget_bytes(self, rollouts: int) -> Optional[int]:
+        """The budget of one of `rollouts` vmapped rollouts, in bytes (None: the default's)."""
+        if self.memory_budget is None:
+            return None
+        return int(self.memory_budget * 2 ** 30 / rollouts)
 
 
 @dataclass(frozen=True)
@@ -590,8 +614,15 @@ class Config(_Checked):
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
         match them): method, observer, controller, sim, loop, seeds, seed."""
         tree = json_safe(dataclasses.asdict(self))
+        for memory_only in MEMORY_KEYS:      # they change memory and time, not results
+            tree["sim"].pop(memory_only)
         return {name: tree[name] for name in ("method", "observer", "controller", "sim", "loop",
                                               "seeds", "seed")}
+
+
+# Settings of `SimSettings` that change how much memory a run takes, never its results: not in
+# `run.json`, so a run can be resumed with others.
+MEMORY_KEYS = ("checkpoint_every", "memory_budget")
 
 
 def json_safe(tree):

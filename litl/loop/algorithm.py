@@ -45,6 +45,7 @@ from litl.models.open_loop import SinusoidController
 from litl.robots.robot import Robot
 from litl.models.window import Window
 from litl.sim import make_rollout
+from litl.sim.memory import default_budget_bytes
 from litl.sim.fields import full_cell_mass, grid_velocity, mass_weighted_velocity
 from litl.sim.rollout import centroid
 
@@ -172,6 +173,9 @@ class Algorithm:
     # simulate(controller, design, observer, initial=None) -> (task loss, (components,
     # trajectory)): one differentiable rollout, from the robot's initial state or `initial`.
     simulate: Callable
+    # checkpoint_plan() -> `litl.sim.memory.CheckpointPlan` of the rollout (None until it has
+    # been traced): whether its backward pass uses segments to fit the memory budget.
+    checkpoint_plan: Callable
 
     @property
     def n_features(self) -> int:
@@ -218,6 +222,11 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     schedule = "fixed" if observer.learner is None else config.loop.schedule.value
     stride = min(config.loop.snapshot_stride, steps)
     _check_learning_data(config.loop, observer, schedule, steps, stride)
+    every = config.sim.checkpoint_every
+    if isinstance(every, int) and every % stride:
+        raise SettingsError(f"sim.checkpoint_every={every} must be a multiple of the snapshot "
+                            f"stride, {stride} (loop.snapshot_stride); or auto, or null",
+                            "sim.checkpoint_every")
     pieces = _Pieces(robot=robot, config=config, dtype=dtype, steps=steps, stride=stride,
                      scene=scene, observer=observer, schedule=schedule,
                      controller=_make_controller(robot, config.controller))
@@ -225,7 +234,8 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
                      learn=pieces.learn, evaluate=pieces.evaluate, steps=steps,
                      observer=observer, schedule=schedule, policy=pieces.policy,
                      controller=pieces.controller, field=pieces.field,
-                     simulate=pieces.simulate)
+                     simulate=pieces.simulate,
+                     checkpoint_plan=lambda: pieces.rollout.plan)
 
 
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
@@ -313,8 +323,14 @@ class _Pieces:
 
     @functools.cached_property
     def rollout(self):
+        """One seed's rollout; the seeds run vmapped, so each gets its share of the budget."""
+        sim, seeds = self.config.sim, self.config.seeds
+        budget = sim.budget_bytes(seeds)
+        if budget is None:
+            budget = default_budget_bytes() // seeds
         return make_rollout(self.scene.config, self.scene.body, self.policy, self.steps,
-                            snapshot_stride=self.stride, observe=centroid, field=self.field)
+                            snapshot_stride=self.stride, observe=centroid, field=self.field,
+                            checkpoint_every=sim.checkpoint_every, memory_budget=budget)
 
     def simulate(self, controller_params, design, observer, initial=None):
         """(task loss, (its components, the trajectory)) of one rollout from the robot's initial

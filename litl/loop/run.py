@@ -278,6 +278,7 @@ class _Shell:
     def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
         self.reconstruct = None
+        self.plan_said = False
         batched = lambda f: jax.jit(jax.vmap(f))
         self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
         self.learn, self.evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
@@ -315,12 +316,26 @@ class _Shell:
         self.start_time = time.perf_counter()
         return shard_seeds(state), counters
 
+    def _say_checkpoint_plan(self):
+        """Once, when the rollout's backward pass needed segments to fit the memory budget."""
+        plan = self.algorithm.checkpoint_plan()
+        if self.plan_said or plan is None or plan.budget_bytes is None or \
+                not plan.checkpoint_every:
+            return
+        self.plan_said = True
+        say(f"litl: the backward pass of a {plan.steps}-step rollout would keep "
+            f"{plan.plain_bytes / 2**30:.3g} GiB per seed, over the budget of "
+            f"{plan.budget_bytes / 2**30:.3g} GiB (sim.memory_budget): segments of "
+            f"{plan.checkpoint_every} steps keep {plan.backward_bytes / 2**30:.3g} GiB, for one "
+            f"more forward pass")
+
     def optimization_phase(self, state, episode: int, iterations: int, before, bar):
         """The episode's optimization iterations, each seed's metrics written as they come."""
         stats = jax.tree.map(np.asarray, state.stats)
         with open(self.metrics_file, "a") as out:
             for iteration in range(iterations):
                 state, metrics = self.optimize(state)
+                self._say_checkpoint_plan()
                 metrics = jax.tree.map(np.asarray, metrics)
                 step = episode * iterations + iteration
                 new = _iteration_records(metrics, stats, np.asarray(state.design), self.seeds,

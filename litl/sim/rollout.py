@@ -20,6 +20,7 @@ from flax import struct
 
 from litl.sim.config import SimConfig
 from litl.sim.fields import GridField, grid_velocity as velocity_field
+from litl.sim.memory import CheckpointPlan, default_budget_bytes, plan_checkpointing
 from litl.sim.state import Body, Design, SimState
 from litl.sim.step import Components, make_component_step, rasterize
 
@@ -96,9 +97,10 @@ def make_rollout(
     snapshot_stride: int | None = None,
     observe: Callable[[SimState], Any] = centroid,
     remat: bool = True,
-    checkpoint_every: int | None = None,
+    checkpoint_every: int | str | None = "auto",
     stress=None,
     field: GridField = velocity_field,
+    memory_budget: int | None = None,
 ):
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
@@ -116,12 +118,16 @@ def make_rollout(
       snapshot_stride: record the grid field every this many steps (None: no snapshots).
       observe: per-step observation of the state, recorded after every step.
       remat: rematerialize each step in the backward pass (`jax.checkpoint`).
-      checkpoint_every: also checkpoint segments of this many steps (a multiple of
-        `snapshot_stride` when both are given); None: no segments.
+      checkpoint_every: "auto" (segments only where the memory budget needs them), K (always
+        segments of K steps, a multiple of `snapshot_stride` when both are given), or None
+        (never).
       stress: ``stress(F, mu, lam) -> tau``, the constitutive model (see `litl.sim.make_step`);
         None: `config.constitutive_model`'s.
       field: ``field(grid) -> (*grid_shape, d)``, what the policy reads and the snapshots record
         of each step's `Grid` (`litl.sim.fields`; default: the node velocities).
+      memory_budget: bytes one rollout's backward pass may keep (under `jax.vmap`, divide the
+        budget by the batch); None: `litl.sim.memory.MEMORY_FRACTION` of the device's memory.
+        Only read with `checkpoint_every="auto"`.
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -132,21 +138,32 @@ def make_rollout(
             f"snapshot_stride must be an integer in [1, steps={steps}] or None, "
             f"got {snapshot_stride!r}"
         )
-    if checkpoint_every is not None and (
-        not isinstance(checkpoint_every, int) or checkpoint_every <= 0
-        or checkpoint_every % (snapshot_stride or 1)
+    if checkpoint_every != "auto" and checkpoint_every is not None and (
+        isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int)
+        or checkpoint_every <= 0 or checkpoint_every % (snapshot_stride or 1)
     ):
         raise ValueError(
-            f"checkpoint_every must be a positive integer multiple of snapshot_stride "
+            f"checkpoint_every must be \"auto\", a positive integer multiple of snapshot_stride "
             f"({snapshot_stride}) or None, got {checkpoint_every!r}"
         )
+    if memory_budget is not None and (isinstance(memory_budget, bool) or
+                                      not isinstance(memory_budget, (int, float)) or
+                                      not memory_budget > 0):
+        raise ValueError(f"memory_budget must be a positive number of bytes or None, got "
+                         f"{memory_budget!r}")
     step_fn = make_component_step(config, body, stress)
-    # Steps run in units (a snapshot is taken after each unit), units in segments (each
-    # rematerialized as a whole when `checkpoint_every` is set).
-    unit = snapshot_stride or min(checkpoint_every or steps, steps)
-    n_units, rest_steps = divmod(steps, unit)
-    units_per_segment = min((checkpoint_every or steps) // unit, n_units)
-    n_segments, rest_units = divmod(n_units, units_per_segment)
+
+    def plan(carry, step_outputs) -> CheckpointPlan:
+        """The segment length for this rollout's carry and per-step outputs (shapes only)."""
+        nbytes = lambda tree: sum(math.prod(leaf.shape) * leaf.dtype.itemsize
+                                  for leaf in jax.tree.leaves(tree))
+        carry_bytes = nbytes(carry)
+        per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride
+                                           if snapshot_stride else 0)
+        if checkpoint_every != "auto":
+            return CheckpointPlan(checkpoint_every, steps, carry_bytes, per_step)
+        budget = default_budget_bytes() if memory_budget is None else int(memory_budget)
+        return plan_checkpointing(steps, snapshot_stride or 1, carry_bytes, per_step, budget)
 
     def rollout(policy_params, design: Design, initial_state: SimState):
         def one_step(carry, counter):
@@ -158,6 +175,17 @@ def make_rollout(
             health = health.record(config, components, index)
             return (components, field(grid), health), (observe(components.pack()), actuation)
 
+        carry = (Components.unpack(initial_state), field(rasterize(config, body, initial_state, design)),
+                 Health.ok())
+        rollout.plan = plan(carry, jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1])
+        every = rollout.plan.checkpoint_every
+        # Steps run in units (a snapshot is taken after each unit), units in segments (each
+        # rematerialized as a whole when there are segments).
+        unit = snapshot_stride or min(every or steps, steps)
+        n_units, rest_steps = divmod(steps, unit)
+        units_per_segment = min((every or steps) // unit, n_units)
+        n_segments, rest_units = divmod(n_units, units_per_segment)
+
         if remat:
             one_step = jax.checkpoint(one_step)
 
@@ -168,11 +196,9 @@ def make_rollout(
         def run_segment(carry, start):
             return jax.lax.scan(run_unit, carry, start + unit * _counter(units_per_segment))
 
-        if checkpoint_every:
+        if every:
             run_segment = jax.checkpoint(run_segment)
 
-        carry = (Components.unpack(initial_state), field(rasterize(config, body, initial_state, design)),
-                 Health.ok())
         segment_steps = unit * units_per_segment
         carry, (observed, snapshots) = jax.lax.scan(
             run_segment, carry, segment_steps * _counter(n_segments))
@@ -202,4 +228,5 @@ def make_rollout(
             health=health,
         )
 
+    rollout.plan = None     # set when the rollout is first traced
     return rollout

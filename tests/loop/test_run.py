@@ -12,6 +12,7 @@ import jax
 import numpy as np
 import pytest
 
+from litl.config import SettingsError
 from litl.loop.run import RunDirectoryError, load_final, run
 from tests.loop.tiny import tiny_config, tiny_robot
 
@@ -222,3 +223,28 @@ def test_one_shot_observer_without_replay(tmp_path):
         assert len(stats) == 1   # learned once, at the start
     # Without replay the buffer holds only the latest rollout's 40 / 10 snapshots.
     np.testing.assert_array_equal(result.state.buffer.count, [4, 4])
+
+
+def test_a_tight_memory_budget_segments_the_backward_pass_and_changes_no_result(tmp_path, capsys):
+    plain = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
+                                          sim={"checkpoint_every": None}),
+                tmp_path / "plain", progress=False)
+    capsys.readouterr()
+    # 40 steps of the 32 x 32 biped keep 0.57 MiB per seed, 0.22 MiB in segments of 10 steps:
+    # 0.8 MiB for the two seeds fits only the latter.
+    tight = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
+                                          sim={"memory_budget": 0.8 / 1024}),
+                tmp_path / "tight", progress=False)
+    said = capsys.readouterr().err
+    assert "segments of 10 steps" in said and "sim.memory_budget" in said
+    for a, b in zip(plain.metrics, tight.metrics):
+        assert a["task_loss"] == pytest.approx(b["task_loss"], rel=1e-5, abs=1e-7)
+    # The budget is not a result: a run resumes with another.
+    resumed = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}),
+                  tmp_path / "tight", progress=False)
+    assert len(resumed.metrics) == len(tight.metrics)
+
+
+def test_checkpoint_every_must_be_a_multiple_of_the_snapshot_stride(tmp_path):
+    with pytest.raises(SettingsError, match="sim.checkpoint_every=15 must be a multiple"):
+        run(tiny_robot(), tiny_config(sim={"checkpoint_every": 15}), tmp_path, progress=False)

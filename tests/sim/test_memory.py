@@ -1,0 +1,67 @@
+"""Segment checkpointing chosen to fit a memory budget: the plan, and gradients unchanged by it."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from litl.sim import make_rollout
+from litl.sim.memory import (
+    MemoryBudgetError, default_budget_bytes, plan_checkpointing, square_root_segment,
+    stored_carries,
+)
+
+from tests.sim.scenes import block, sine_params, sine_policy
+
+
+def test_plain_when_it_fits_segments_near_the_square_root_when_not():
+    assert plan_checkpointing(4096, 1, 1000, 10, budget_bytes=10**8).checkpoint_every is None
+    plan = plan_checkpointing(4096, 1, 1000, 10, budget_bytes=10**6)
+    assert plan.checkpoint_every == 64 and plan.kept_carries == 128
+    assert plan.backward_bytes == 128 * 1000 + 4096 * 10 <= 10**6 < plan.plain_bytes
+    # With snapshots every 10 steps, K is a multiple of 10 near sqrt(1000) = 31.6.
+    assert square_root_segment(1000, 10) in (30, 40)
+    assert stored_carries(1000, 30) == 34 + 30 and stored_carries(1000, None) == 1000
+
+
+def test_a_budget_too_small_even_for_segments_says_what_to_change():
+    with pytest.raises(MemoryBudgetError, match=r"raise sim.memory_budget .*fewer steps"):
+        plan_checkpointing(4096, 1, 1000, 10, budget_bytes=10**5)
+
+
+def test_the_default_budget_is_half_the_device_memory():
+    assert 0 < default_budget_bytes() < 2 ** 50
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_tight_budget_picks_segments_and_the_gradient_is_unchanged(dim, x64):
+    config, body, design, state = block(dim, n_grid=16, lower=0.3, size=0.25, youngs=300.0,
+                                        dtype=jnp.float64)
+    params = sine_params(body.n_actuators, jnp.float64)
+    steps = 64
+
+    def gradient(**memory):
+        rollout = make_rollout(config, body, sine_policy, steps, snapshot_stride=4, **memory)
+        loss = lambda p, e: jnp.mean(rollout(p, design.replace(youngs_modulus=e), state)[0].x)
+        value, grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(
+            params, design.youngs_modulus)
+        return rollout.plan, value, grads
+
+    plain_plan, plain_value, plain_grads = gradient(checkpoint_every=None)
+    assert plain_plan.checkpoint_every is None
+    # Half the plain backward pass: segments of about sqrt(64) = 8 steps.
+    budget = plain_plan.plain_bytes // 2
+    plan, value, grads = gradient(memory_budget=budget)
+    assert plan.checkpoint_every == 8 and plan.backward_bytes <= budget
+    # A generous budget keeps the plain backward pass.
+    assert gradient(memory_budget=10 * plain_plan.plain_bytes)[0].checkpoint_every is None
+    np.testing.assert_allclose(value, plain_value, rtol=1e-12)
+    for a, b in zip(jax.tree.leaves(grads), jax.tree.leaves(plain_grads)):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-14)
+
+
+def test_bad_budgets_are_refused():
+    config, body, design, state = block(2)
+    for budget in (0, -1.0, True, "1GB"):
+        with pytest.raises(ValueError, match="memory_budget must be a positive number"):
+            make_rollout(config, body, sine_policy, 10, memory_budget=budget)
