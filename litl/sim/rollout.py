@@ -89,6 +89,15 @@ def _counter(length):
     return jnp.arange(length, dtype=jnp.int32)
 
 
+def _reads(function, argument) -> bool:
+    """Whether `function(argument)`'s result depends on `argument` (from its jaxpr: an unused
+    input is never read)."""
+    closed = jax.make_jaxpr(function)(argument)
+    used = {id(v) for eqn in closed.jaxpr.eqns for v in eqn.invars}
+    used |= {id(v) for v in closed.jaxpr.outvars}
+    return any(id(v) in used for v in closed.jaxpr.invars)
+
+
 def make_rollout(
     config: SimConfig,
     body: Body,
@@ -153,11 +162,12 @@ def make_rollout(
                          f"{memory_budget!r}")
     step_fn = make_component_step(config, body, stress)
 
-    def plan(carry, step_outputs) -> CheckpointPlan:
-        """The segment length for this rollout's carry and per-step outputs (shapes only)."""
+    def plan(carry, step_outputs, reads_field: bool) -> CheckpointPlan:
+        """The segment length for this rollout's carry and per-step outputs (shapes only); the
+        grid field is kept per step only when the policy reads it (else XLA drops it)."""
         nbytes = lambda tree: sum(math.prod(leaf.shape) * leaf.dtype.itemsize
                                   for leaf in jax.tree.leaves(tree))
-        carry_bytes = nbytes(carry)
+        carry_bytes = nbytes(carry) - (0 if reads_field else nbytes(carry[1]))
         per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride
                                            if snapshot_stride else 0)
         if checkpoint_every != "auto":
@@ -177,7 +187,8 @@ def make_rollout(
 
         carry = (Components.unpack(initial_state), field(rasterize(config, body, initial_state, design)),
                  Health.ok())
-        rollout.plan = plan(carry, jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1])
+        rollout.plan = plan(carry, jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1],
+                            _reads(lambda g: policy(policy_params, initial_state, g), carry[1]))
         every = rollout.plan.checkpoint_every
         # Steps run in units (a snapshot is taken after each unit), units in segments (each
         # rematerialized as a whole when there are segments).

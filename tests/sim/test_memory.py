@@ -65,3 +65,17 @@ def test_bad_budgets_are_refused():
     for budget in (0, -1.0, True, "1GB"):
         with pytest.raises(ValueError, match="memory_budget must be a positive number"):
             make_rollout(config, body, sine_policy, 10, memory_budget=budget)
+
+
+def test_the_grid_field_counts_only_when_the_policy_reads_it():
+    config, body, design, state = block(2, n_grid=16)
+    params = sine_params(body.n_actuators)
+    reading = lambda p, s, g: sine_policy(p, s, g) + 0.0 * jnp.sum(g)
+
+    def planned(policy):
+        rollout = make_rollout(config, body, policy, 8, checkpoint_every=None)
+        jax.eval_shape(rollout, params, design, state)
+        return rollout.plan.carry_bytes
+
+    field_bytes = 16 * 16 * 2 * 4     # the 2D grid velocity, float32
+    assert planned(reading) - planned(sine_policy) == field_bytes
