@@ -67,13 +67,13 @@ def _sized(sizes: tuple[int, ...], *names: str) -> tuple[Variant, ...]:
 
 
 PANELS = (
-    Panel("fig4a", "Fig. 4a: arm (reach, fixed base, no gravity; control only)", "fig4a_arm",
+    Panel("fig4a", "Fig. 4a: arm, reach (control only)", "fig4a_arm",
           _variants("vae", "kmeans", "vae_one_shot", "vae_no_replay")),
-    Panel("fig4b", "Fig. 4b: biped (run right; co-design)", "fig4b_biped",
+    Panel("fig4b", "Fig. 4b: biped, run (co-design)", "fig4b_biped",
           _variants("vae", "kmeans", "sinusoid")),
-    Panel("fig4c", "Fig. 4c: elephant (walk right, trunk reaches; control only)",
+    Panel("fig4c", "Fig. 4c: elephant, walk and reach",
           "fig4c_elephant", _sized((4, 8), "vae", "kmeans")),
-    Panel("fig4d", "Fig. 4d: bunny (walk, two hands reach; control only)", "fig4d_bunny",
+    Panel("fig4d", "Fig. 4d: bunny, walk and two reaches", "fig4d_bunny",
           _variants("vae", "kmeans", "sinusoid")),
 )
 PANEL_NAMES = tuple(panel.name for panel in PANELS)
