@@ -30,6 +30,7 @@ import numpy as np
 import optax
 from flax import struct
 
+from litl.models.conv import IMPLEMENTATIONS, StridedConv, resolve as resolve_convolution
 from litl.models.window import Window
 
 LEVELS = 5
@@ -61,6 +62,8 @@ class ConvAutoencoder(nn.Module):
       variational: VAE (mean and log-variance) or plain AE (a point code).
       kernel: convolution kernel size along each axis.
       activation: ``"elu"`` or ``"relu"`` (the paper's), between the convolutions.
+      convolution: how the convolutions are computed, "auto", "xla" or "matmul"
+        (`litl.models.conv`); the same function either way, only the speed differs.
     """
 
     grid_shape: tuple[int, ...]
@@ -69,11 +72,15 @@ class ConvAutoencoder(nn.Module):
     variational: bool = True
     kernel: int = 3
     activation: str = "elu"
+    convolution: str = "auto"
 
     def __post_init__(self):
         if self.activation not in ACTIVATIONS:
             raise ValueError(f"unknown activation {self.activation!r}; choose one of "
                              f"{sorted(ACTIVATIONS)}")
+        if self.convolution not in IMPLEMENTATIONS:
+            raise ValueError(f"unknown convolution {self.convolution!r}; choose one of "
+                             f"{list(IMPLEMENTATIONS)}")
         if len(self.grid_shape) not in (2, 3):
             raise ValueError(f"grid_shape must have 2 or 3 axes, got {self.grid_shape!r}")
         if len(self.channels) != LEVELS or any(c < 1 for c in self.channels):
@@ -87,9 +94,8 @@ class ConvAutoencoder(nn.Module):
         return len(self.grid_shape)
 
     def setup(self):
-        window = (self.kernel,) * self.dim
-        strides = (2,) * self.dim
-        self.encoder_convs = [nn.Conv(c, window, strides, padding="SAME") for c in self.channels]
+        how = resolve_convolution(self.convolution, self.dim)
+        self.encoder_convs = [StridedConv(c, self.kernel, how) for c in self.channels]
         self.to_mean = nn.Dense(self.latent_dim)
         # The posterior starts narrow (sigma ~ 0.1): with sigma ~ 1 the sampling noise swamps the
         # freshly initialized means and the decoder first learns to ignore the code.
@@ -103,7 +109,7 @@ class ConvAutoencoder(nn.Module):
         self.to_momentum = nn.Dense(self.dim)
         out_channels = list(self.channels[-2::-1]) + [self.dim]
         self.decoder_convs = [
-            nn.ConvTranspose(c, window, strides, padding="SAME") for c in out_channels
+            StridedConv(c, self.kernel, how, transpose=True) for c in out_channels
         ]
 
     def encode(self, field):
