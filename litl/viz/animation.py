@@ -21,7 +21,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from litl.viz.robots import (
-    VizError, draw_robot, draw_robot_3d, particle_colors, resolve,
+    VizError, draw_robot, draw_robot_3d, particle_colors, resolve, rollout_limits,
     to_plot_3d,
 )
 
@@ -79,7 +79,7 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
     Raises:
       VizError: an unknown suffix, .mp4 without ffmpeg, or positions/actuation of the wrong shape.
     """
-    name, layout, _, _ = resolve(robot)
+    name, layout, config, targets = resolve(robot)
     positions, actuation = _check_rollout(name, layout, positions, actuation)
     path = Path(path)
     suffix = path.suffix.lower()
@@ -99,8 +99,11 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
                 if stiffness is not None else {})
     first_actuation = None if stiffness is not None else actuation[0]
     if layout.dim == 3:
+        # Framed on the robot's path rather than the whole domain, where a walker is a speck.
         ax = draw_robot_3d(robot, fig.add_subplot(projection="3d"), positions[0],
-                           first_actuation, show_targets, colorbar=colorbar, **coloring)
+                           first_actuation, show_targets, colorbar=colorbar,
+                           limits=rollout_limits(positions, config, targets=targets.values()),
+                           **coloring)
     else:
         ax = draw_robot(robot, fig.add_subplot(), positions[0], first_actuation, show_targets,
                         colorbar=colorbar, **coloring)

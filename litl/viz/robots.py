@@ -315,7 +315,8 @@ def to_plot_3d(points: np.ndarray) -> np.ndarray:
 
 def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: bool = True,
                   show_regions: bool = False, *, config=None, task=None, colorbar: bool = False,
-                  stiffness=None, stiffness_range=None, elev: float = 20.0, azim: float = -65.0):
+                  stiffness=None, stiffness_range=None, elev: float = 20.0, azim: float = -65.0,
+                  limits=None):
     """Draw a 3D robot as a scatter on a mplot3d Axes (same colour rules as `draw_robot`).
 
     The simulation's axis 1 ("up") is drawn vertically and axis 2 (depth) into the picture; the
@@ -330,6 +331,8 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
       show_targets, show_regions, config, task, colorbar, stiffness, stiffness_range: as in
         `draw_robot`.
       elev, azim: camera angles passed to ``ax.view_init``.
+      limits: (3, 2) low and high view limits per simulation axis (x, up, depth), e.g. a
+        rollout's bounding box (`rollout_limits`); None: the domain.
 
     Returns:
       The 3D Axes.
@@ -347,7 +350,11 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
     elif getattr(ax, "name", "") != "3d":
         raise VizError("draw_robot_3d needs a 3D Axes: fig.add_subplot(projection='3d')")
 
-    limits = np.asarray(_view_limits(layout, positions, config, targets))[[0, 2, 1]]
+    if limits is None:
+        limits = _view_limits(layout, positions, config, targets)
+    elif np.shape(limits) != (3, 2):
+        raise VizError(f"limits must be (3, 2) low/high per axis, got shape {np.shape(limits)}")
+    limits = np.asarray(limits, float)[[0, 2, 1]]
     ax.set_xlim(*limits[0])
     ax.set_ylim(*limits[1])
     ax.set_zlim(*limits[2])
@@ -356,7 +363,7 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
     # Draw in zorder (floor, body, markers): by depth, mplot3d would hide the X inside the body.
     ax.computed_zorder = False
     if config is not None and config.boundary.walls[2].kind != "open":
-        _draw_floor(ax, config)
+        _draw_floor(ax, config, limits)
     plotted = to_plot_3d(positions)
     # Marker area from the particle cell relative to the domain; the projection shrinks it, so
     # this only approximates the cell, which is all a 3D scatter can do.
@@ -381,12 +388,26 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
     return ax
 
 
-def _draw_floor(ax, config):
+def rollout_limits(positions, config=None, margin: float = 0.1, targets=()) -> np.ndarray:
+    """(3, 2) view limits around a 3D rollout: its particles' bounding box over all frames (and
+    any `targets` points), `margin` wider on every side and down to the floor, clipped to the
+    domain (with `config`)."""
+    points = np.concatenate([np.asarray(positions, float).reshape(-1, 3),
+                             np.asarray(list(targets), float).reshape(-1, 3)])
+    limits = np.stack([points.min(0) - margin, points.max(0) + margin], axis=1)
+    limits[1, 0] = 0.0
+    if config is not None:
+        limits[:, 0] = np.maximum(limits[:, 0], 0.0)
+        limits[:, 1] = np.minimum(limits[:, 1], np.asarray(config.domain_size, float))
+    return limits
+
+
+def _draw_floor(ax, config, limits):
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    width, _, depth = config.domain_size
+    (x0, x1), (z0, z1) = limits[0], limits[1]    # plot axes: x, depth
     height = config.boundary.thickness * config.dx
-    corners = [(0, 0, height), (width, 0, height), (width, depth, height), (0, depth, height)]
+    corners = [(x0, z0, height), (x1, z0, height), (x1, z1, height), (x0, z1, height)]
     ax.add_collection3d(Poly3DCollection([corners], facecolor=WALL_COLOR, alpha=0.35,
                                          edgecolor=WALL_COLOR, zorder=1, gid="wall"))
 

@@ -21,6 +21,7 @@ from litl.robots.tasks import Locomotion, Reach, Task  # noqa: E402
 from litl.sim import Boundary, SimConfig, Wall  # noqa: E402
 from litl.viz import (  # noqa: E402
     VizError, animate_rollout, draw, draw_robot, draw_robot_3d, particle_colors, record_rollout,
+    rollout_limits,
 )
 from litl.viz.robots import PINNED_COLOR  # noqa: E402
 
@@ -248,6 +249,21 @@ def test_gif_3d(robot3d, tmp_path):
     path = animate_rollout(robot3d, positions, actuation, tmp_path / "walk3d.gif", dpi=30)
     with Image.open(path) as gif:
         assert gif.n_frames == 2
+
+
+def test_3d_views_frame_the_rollout_not_the_whole_domain(robot3d):
+    rest = robot3d.layout.positions
+    positions = np.stack([rest, rest + [0.3, 0.05, 0.0]])
+    limits = rollout_limits(positions, robot3d.config, margin=0.1)
+    low, high = positions.min((0, 1)), positions.max((0, 1))
+    domain = np.asarray(robot3d.config.domain_size)
+    np.testing.assert_allclose(limits[:, 1], np.minimum(high + 0.1, domain))
+    np.testing.assert_allclose(limits[[0, 2], 0], np.maximum(low[[0, 2]] - 0.1, 0.0))
+    assert limits[1, 0] == 0.0                          # down to the floor
+    ax = draw_robot_3d(robot3d, positions=positions[1], limits=limits)
+    assert ax.get_xlim() == tuple(limits[0]) and ax.get_zlim() == tuple(limits[1])
+    with pytest.raises(VizError, match=r"\(3, 2\)"):
+        draw_robot_3d(robot3d, limits=[(0, 1), (0, 1)])
 
 
 def test_animation_errors_leave_no_file(robot2d, recorded, tmp_path, monkeypatch):
