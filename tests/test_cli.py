@@ -62,6 +62,13 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     for name in ("robots.png", "task_loss.png", "robot.gif", "saliency.gif", "snapshots.png",
                  "latent_sweeps.png"):
         assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
+    # ... and replays a folder of runs (the 3D walkers') into walker_<run>.gif, demo skipped.
+    walkers = subprocess.run([sys.executable, str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
+                              "--no-demo", "--walkers", str(run_dir.parent),
+                              "--out", str(tmp_path / "walkers")],
+                             capture_output=True, text=True, timeout=300)
+    assert walkers.returncode == 0, walkers.stderr[-3000:]
+    assert sorted(p.name for p in (tmp_path / "walkers").iterdir()) == [f"walker_{run_dir.name}.gif"]
     # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss.
     replay = subprocess.run([sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
                             cwd=tmp_path, capture_output=True, text=True, timeout=300)

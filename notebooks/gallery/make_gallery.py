@@ -3,12 +3,16 @@
     python notebooks/gallery/make_gallery.py                   # runs the demo (about 2 min on CPU)
     python notebooks/gallery/make_gallery.py --demo RUN_DIR    # reuse a finished `python -m litl` run
     python notebooks/gallery/make_gallery.py --compare multirun/biped_compare/<time>
+    python notebooks/gallery/make_gallery.py --no-demo --walkers outputs/walkers3d
 
 Writes robots.png (the eight robots), and from the demo run task_loss.png, robot.gif,
 saliency.gif, snapshots.png and latent_sweeps.png. With `--compare` (the multirun directory of
 `python -m litl -m experiment=biped_compare`) it also writes biped_compare.png, the report's
 task-loss bands of that sweep, and compare_<variant>.gif, seed 0 of each variant replayed
-(`python -m litl.replay JOB --seed 0`). Prints each file it wrote.
+(`python -m litl.replay JOB --seed 0`). With `--walkers DIR` (a folder of finished runs, one per
+robot, e.g. the 3D walkers: `python -m litl robot=quadruped ... hydra.run.dir=DIR/quadruped`) it
+writes walker_<robot>.gif, each run's seed 0 replayed. `--no-demo` skips robots.png and the demo's
+files. Prints each file it wrote.
 """
 
 from __future__ import annotations
@@ -61,10 +65,36 @@ def main(argv=None) -> int:
                         help="a finished `python -m litl` run directory (default: run the demo now)")
     parser.add_argument("--compare", type=pathlib.Path,
                         help="the multirun directory of `python -m litl -m experiment=biped_compare`")
+    parser.add_argument("--walkers", type=pathlib.Path,
+                        help="a folder of finished runs, one per robot: walker_<robot>.gif each")
+    parser.add_argument("--no-demo", action="store_true",
+                        help="skip robots.png and the demo's pictures")
     parser.add_argument("--out", type=pathlib.Path, default=GALLERY, help="where to write")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    if not args.no_demo:
+        write_demo(parser, args)
+    if args.compare is not None:
+        write_compare(parser, args)
+    if args.walkers is not None:
+        runs = sorted(path.parent for path in args.walkers.glob("*/final.json"))
+        if not runs:
+            parser.error(f"{args.walkers} holds no finished runs (<robot>/final.json)")
+        for run in runs:
+            replay_seed0(run, args.out / f"walker_{run.name}.gif")
+    return 0
 
+
+def replay_seed0(run: pathlib.Path, out: pathlib.Path) -> None:
+    """`python -m litl.replay RUN --seed 0` into `out`, keeping only the animation."""
+    subprocess.run([sys.executable, "-m", "litl.replay", str(run), "--seed", "0",
+                    "--out", str(out)], check=True)
+    out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
+    out.with_suffix(".json").unlink(missing_ok=True)
+    print(out)
+
+
+def write_demo(parser, args) -> None:
     draw_robots(args.out / "robots.png")
     print(args.out / "robots.png")
 
@@ -81,24 +111,19 @@ def main(argv=None) -> int:
             shutil.copyfile(demo / name, args.out / name)
             print(args.out / name)
 
-    if args.compare is not None:
-        from litl.report import write_report
 
-        with tempfile.TemporaryDirectory() as scratch:
-            report = write_report(args.compare, scratch)
-            curves = [path for path in report.files if path.name == "task_loss.png"]
-            if not curves:
-                parser.error(f"no task-loss curves could be drawn from {args.compare}")
-            shutil.copyfile(curves[0], args.out / "biped_compare.png")
-            print(args.out / "biped_compare.png")
-        for job in sorted(path.parent for path in args.compare.glob("*/final.json")):
-            out = args.out / f"compare_{variant_of(job)}.gif"
-            subprocess.run([sys.executable, "-m", "litl.replay", str(job), "--seed", "0",
-                            "--out", str(out)], check=True)
-            out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
-            out.with_suffix(".json").unlink(missing_ok=True)
-            print(out)
-    return 0
+def write_compare(parser, args) -> None:
+    from litl.report import write_report
+
+    with tempfile.TemporaryDirectory() as scratch:
+        report = write_report(args.compare, scratch)
+        curves = [path for path in report.files if path.name == "task_loss.png"]
+        if not curves:
+            parser.error(f"no task-loss curves could be drawn from {args.compare}")
+        shutil.copyfile(curves[0], args.out / "biped_compare.png")
+        print(args.out / "biped_compare.png")
+    for job in sorted(path.parent for path in args.compare.glob("*/final.json")):
+        replay_seed0(job, args.out / f"compare_{variant_of(job)}.gif")
 
 
 def variant_of(job: pathlib.Path) -> str:
