@@ -70,6 +70,18 @@ import numpy as np
 from fresh_process import measure_in_fresh_process
 
 
+def _compile(function, argument):
+    """(compiled `function` at `argument`, compile seconds, XLA's temporary bytes or None)."""
+    import jax
+
+    start = time.perf_counter()
+    compiled = jax.jit(function).lower(argument).compile()
+    compile_s = time.perf_counter() - start
+    analysis = compiled.memory_analysis()
+    temp = getattr(analysis, "temp_size_in_bytes", None) if analysis is not None else None
+    return compiled, compile_s, temp
+
+
 def _current_rss_mb() -> float:
     with open("/proc/self/statm") as statm:
         return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
@@ -96,11 +108,7 @@ def measure(particles: int, steps: int, checkpoint_every: int | None, n_grid: in
     from sim_speed import block_problem, device_info
 
     _, gradient, youngs, n = block_problem(steps, particles, n_grid, checkpoint_every)
-    start = time.perf_counter()
-    compiled = jax.jit(gradient).lower(youngs).compile()
-    compile_s = time.perf_counter() - start
-    analysis = compiled.memory_analysis()
-    temp = getattr(analysis, "temp_size_in_bytes", None) if analysis is not None else None
+    compiled, compile_s, temp = _compile(gradient, youngs)
     result = {
         "particles": n,
         "steps": steps,
@@ -162,11 +170,7 @@ def measure_curve_point(particles: int, steps: int, checkpoint_every: int | None
     from sim_speed import block_problem, device_info
 
     forward, gradient, youngs, n = block_problem(steps, particles, n_grid, checkpoint_every)
-    start = time.perf_counter()
-    gradient_compiled = jax.jit(gradient).lower(youngs).compile()
-    compile_s = time.perf_counter() - start
-    analysis = gradient_compiled.memory_analysis()
-    temp = getattr(analysis, "temp_size_in_bytes", None) if analysis is not None else None
+    gradient_compiled, compile_s, temp = _compile(gradient, youngs)
     start = time.perf_counter()
     forward_compiled = jax.jit(forward).lower(youngs).compile()
     forward_compile_s = time.perf_counter() - start
