@@ -96,3 +96,24 @@ def test_arm_cannot_reach_its_target_by_bending_statically():
         path = np.asarray(trajectory.observations)
         closest = np.linalg.norm(path - target, axis=1).min()
         assert closest > 0.5 * np.linalg.norm(target - rest)
+
+
+@pytest.mark.parametrize("name", ["quadruped", "curved_quadruped"])
+def test_3d_quadrupeds_carry_their_torsos_without_actuation(name):
+    """The torso's middle spans the legs: with too soft a body (E = 20, the 2D robots' material)
+    it sagged to the floor within 0.2 s of landing; the walkers' own material keeps it up."""
+    robot = litl.robots.get(name)
+    scene = robot.scene()
+    rest = np.asarray(scene.state.x)
+    middle = np.abs(rest[:, 0] - rest[:, 0].mean()) < 0.04
+    top = rest[middle, 1].max()
+    underside = np.flatnonzero(middle & (rest[:, 1] > top - 0.1) & (rest[:, 1] < top - 0.05))
+    assert underside.size > 0
+    floor = robot.config.boundary.thickness * robot.config.dx
+    rollout = jax.jit(make_rollout(
+        robot.config, scene.body, lambda params, state, grid: jnp.zeros(robot.n_actuators),
+        robot.steps, observe=lambda state: jnp.mean(state.x[underside, 1])))
+    _, trajectory = rollout(None, scene.design, scene.state)
+    raise_if_unhealthy(trajectory.health, robot.steps)
+    height = np.asarray(trajectory.observations)[robot.steps // 5:] - floor
+    assert height.min() > 0.02, f"the torso's middle came down to {height.min():.3f} above the floor"
