@@ -70,7 +70,8 @@ def load_run_config(run_dir: pathlib.Path):
 
 
 def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
-           which: str = "final", color: str = "actuation", stride: int = 10) -> dict:
+           which: str = "final", color: str = "actuation", stride: int = 10,
+           gait: bool = False) -> dict:
     """Simulate a saved robot again and write its animation, design picture and losses.
 
     Args:
@@ -81,16 +82,18 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
       which: ``"final"`` (after the last iteration) or ``"best"`` (each seed's best rollout).
       color: ``"actuation"`` or ``"stiffness"`` (the learned Young's modulus per region).
       stride: simulation steps per animation frame.
+      gait: also measure and draw how it walked (`litl.viz.draw_gait`: each foot's lifts and
+        slip, a side view) into `<out stem>_gait.png` and the summary's ``gait``.
 
     Returns:
       The summary written to `<out>.json` (seed, steps, task_loss, components, recorded_loss,
-      files).
+      files, and gait if asked).
     """
     import jax
     import numpy as np
 
     from litl.loop import load_final, make_algorithm, stack_seeds
-    from litl.viz import animate_rollout, draw, record_rollout
+    from litl.viz import animate_rollout, draw, draw_gait, record_rollout
 
     run_dir = pathlib.Path(run_dir)
     if which not in ("final", "best"):
@@ -140,6 +143,14 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     picture = out.with_name(out.stem + "_design.png")
     _draw_design(robot, design, space.bounds, picture, draw)
 
+    files = [str(out), str(picture)]
+    gait_numbers = None
+    if gait:
+        gait_picture = out.with_name(out.stem + "_gait.png")
+        _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt,
+                                    path=gait_picture)
+        files.append(str(gait_picture))
+
     recorded = _recorded_loss(run_dir, which, seed)
     summary = {
         "run_dir": str(run_dir), "seed": seed, "which": which, "steps": steps,
@@ -147,8 +158,10 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
         "task_loss": float(losses[index]), "components": components,
         "recorded_loss": recorded,
         "design": design.tolist(), "design_bounds": list(space.bounds),
-        "files": [str(out), str(picture)],
+        "files": files,
     }
+    if gait_numbers is not None:
+        summary["gait"] = gait_numbers
     out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
     return summary
 
@@ -207,10 +220,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--color", choices=("actuation", "stiffness"), default="actuation",
                         help="colour particles by actuation or by the learned Young's modulus")
     parser.add_argument("--stride", type=int, default=10, help="simulation steps per frame")
+    parser.add_argument("--gait", action="store_true",
+                        help="also write <out>_gait.png and the feet's lifts and slip (walkers)")
     args = parser.parse_args(argv)
     try:
         summary = replay(args.run_dir, args.seed, args.steps, args.out, args.which, args.color,
-                         args.stride)
+                         args.stride, args.gait)
     except UserError as error:
         print(f"litl.replay: error: {error}", file=sys.stderr)
         return 2

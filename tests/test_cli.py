@@ -68,7 +68,8 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
                               "--out", str(tmp_path / "walkers")],
                              capture_output=True, text=True, timeout=300)
     assert walkers.returncode == 0, walkers.stderr[-3000:]
-    assert sorted(p.name for p in (tmp_path / "walkers").iterdir()) == [f"walker_{run_dir.name}.gif"]
+    assert sorted(p.name for p in (tmp_path / "walkers").iterdir()) == [
+        f"walker_{run_dir.name}.gif", f"walker_{run_dir.name}_gait.png"]
     # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss.
     replay = subprocess.run([sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
                             cwd=tmp_path, capture_output=True, text=True, timeout=300)

@@ -11,7 +11,8 @@ saliency.gif, snapshots.png and latent_sweeps.png. With `--compare` (the multiru
 task-loss bands of that sweep, and compare_<variant>.gif, seed 0 of each variant replayed
 (`python -m litl.replay JOB --seed 0`). With `--walkers DIR` (a folder of finished runs, one per
 robot, e.g. the 3D walkers: `python -m litl robot=quadruped ... hydra.run.dir=DIR/quadruped`) it
-writes walker_<robot>.gif, each run's seed 0 replayed. `--no-demo` skips robots.png and the demo's
+writes walker_<robot>.gif, each run's seed 0 replayed, and walker_<robot>_gait.png, how it walked
+(`python -m litl.replay RUN --gait`: side view, each foot's height and travel). `--no-demo` skips robots.png and the demo's
 files. Prints each file it wrote.
 """
 
@@ -66,7 +67,8 @@ def main(argv=None) -> int:
     parser.add_argument("--compare", type=pathlib.Path,
                         help="the multirun directory of `python -m litl -m experiment=biped_compare`")
     parser.add_argument("--walkers", type=pathlib.Path,
-                        help="a folder of finished runs, one per robot: walker_<robot>.gif each")
+                        help="a folder of finished runs, one per robot: walker_<robot>.gif and "
+                             "walker_<robot>_gait.png each")
     parser.add_argument("--no-demo", action="store_true",
                         help="skip robots.png and the demo's pictures")
     parser.add_argument("--out", type=pathlib.Path, default=GALLERY, help="where to write")
@@ -81,17 +83,20 @@ def main(argv=None) -> int:
         if not runs:
             parser.error(f"{args.walkers} holds no finished runs (<robot>/final.json)")
         for run in runs:
-            replay_seed0(run, args.out / f"walker_{run.name}.gif")
+            replay_seed0(run, args.out / f"walker_{run.name}.gif", "--gait")
     return 0
 
 
-def replay_seed0(run: pathlib.Path, out: pathlib.Path) -> None:
-    """`python -m litl.replay RUN --seed 0` into `out`, keeping only the animation."""
+def replay_seed0(run: pathlib.Path, out: pathlib.Path, *options: str) -> None:
+    """`python -m litl.replay RUN --seed 0 [options]` into `out`, keeping only the animation (and
+    the gait picture, with --gait)."""
     subprocess.run([sys.executable, "-m", "litl.replay", str(run), "--seed", "0",
-                    "--out", str(out)], check=True)
+                    "--out", str(out), *options], check=True)
     out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
     out.with_suffix(".json").unlink(missing_ok=True)
-    print(out)
+    for written in (out, out.with_name(out.stem + "_gait.png")):
+        if written.exists():
+            print(written)
 
 
 def write_demo(parser, args) -> None:
