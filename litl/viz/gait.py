@@ -48,6 +48,14 @@ def find_feet(layout: Layout) -> list[np.ndarray]:
     return sorted(feet, key=lambda foot: tuple(np.delete(rest[foot].mean(axis=0), 1)))
 
 
+def _foot_tracks(positions: np.ndarray, layout: Layout):
+    """(feet, heights, xs): `find_feet`, each foot's lowest height and mean x per frame, (T, feet)."""
+    feet = find_feet(layout)
+    heights = np.stack([positions[:, foot, 1].min(axis=1) for foot in feet], axis=1)
+    xs = np.stack([positions[:, foot, 0].mean(axis=1) for foot in feet], axis=1)
+    return feet, heights, xs
+
+
 def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
     """Numbers of a recorded gait.
 
@@ -70,11 +78,9 @@ def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
     if not (np.isfinite(frame_dt) and frame_dt > 0):
         raise VizError(f"frame_dt must be a positive number of seconds, got {frame_dt}")
     spacing = particle_side(layout)
-    feet = find_feet(layout)
-    heights = np.stack([positions[:, foot, 1].min(axis=1) for foot in feet], axis=1)  # (T, feet)
+    feet, heights, xs = _foot_tracks(positions, layout)
     floor = heights.min()
     down = heights - floor <= spacing
-    xs = np.stack([positions[:, foot, 0].mean(axis=1) for foot in feet], axis=1)
     moves = np.abs(np.diff(xs, axis=0))
     grounded_moves = np.where(down[1:] & down[:-1], moves, 0.0)
     rest = np.asarray(layout.positions, np.float64)
@@ -114,7 +120,7 @@ def draw_gait(robot, positions, frame_dt: float, path=None, frames: int = 8):
     if not isinstance(frames, int) or frames < 1:
         raise VizError(f"frames must be a positive integer, got {frames!r}")
     positions = np.asarray(positions, np.float64)
-    feet = find_feet(layout)
+    _, lows, xs = _foot_tracks(positions, layout)
     time = np.arange(len(positions)) * frame_dt
     fig, (side, height, travel) = plt.subplots(
         3, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [1.3, 1, 1]})
@@ -125,12 +131,10 @@ def draw_gait(robot, positions, frame_dt: float, path=None, frames: int = 8):
         side.axhline(config.boundary.thickness * config.dx, color="k", lw=0.8)
     side.set_aspect("equal")
     side.set_title(f"{name}: side view at {frames} moments (dark: early, light: late)")
-    lows = np.stack([positions[:, foot, 1].min(axis=1) for foot in feet], axis=1)
-    for i, foot in enumerate(feet):
-        label = f"foot {i} (rest x {gait['feet'][i]['rest_x']:.2f})"
+    for i, foot in enumerate(gait["feet"]):
+        label = f"foot {i} (rest x {foot['rest_x']:.2f})"
         height.plot(time, lows[:, i] - lows.min(), label=label)
-        travel.plot(time, positions[:, foot, 0].mean(axis=1) - positions[0, foot, 0].mean(),
-                    label=label)
+        travel.plot(time, xs[:, i] - xs[0, i], label=label)
     height.axhline(particle_side(layout), color="grey", ls=":", lw=0.8)
     height.set_ylabel("foot height above floor")
     height.legend(fontsize=7, ncol=3)

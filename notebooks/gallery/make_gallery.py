@@ -12,8 +12,8 @@ task-loss bands of that sweep, and compare_<variant>.gif, seed 0 of each variant
 (`python -m litl.replay JOB --seed 0`). With `--walkers DIR` (a folder of finished runs, one per
 robot, e.g. the 3D walkers: `python -m litl robot=quadruped ... hydra.run.dir=DIR/quadruped`) it
 writes walker_<robot>.gif, each run's seed 0 replayed, and walker_<robot>_gait.png, how it walked
-(`python -m litl.replay RUN --gait`: side view, each foot's height and travel). `--no-demo` skips robots.png and the demo's
-files. Prints each file it wrote.
+(`python -m litl.replay RUN --gait`: side view, each foot's height and travel). `--no-demo` skips
+robots.png and the demo's files. Prints each file it wrote.
 """
 
 from __future__ import annotations
