@@ -12,6 +12,9 @@ For each window size and implementation ("xla", "matmul"), three programs of the
   encode       the encoder on one field (what a rollout step's controller reads)
   encode_grad  its gradient with respect to the field (`controller.feature_gradient=full`)
 
+--seeds S vmaps every program over S seeds, each with its own parameters and inputs (as the
+loop runs its seeds); XLA's CPU convolution then becomes a grouped one.
+
 Times: median of --repeats calls after compilation (compile: lowering + compilation, apart);
 memory: XLA's temporary buffers of the compiled program (`memory_analysis().temp_size_in_bytes`).
 Each program's outputs are asserted equal between the implementations (rtol 1e-4) first.
@@ -34,17 +37,19 @@ IMPLEMENTATIONS = ("xla", "matmul")
 BATCH = 8
 
 
-def programs(shape, implementation):
-    """{name: (jitted function, args)} of one size and implementation."""
+def programs(shape, implementation, seeds=1):
+    """{name: (jitted function, args)} of one size and implementation; seeds > 1: each program
+    vmapped over that many seeds' parameters and inputs."""
     import jax
     import jax.numpy as jnp
 
     from litl.models import vae
 
     model = vae.ConvAutoencoder(grid_shape=shape, convolution=implementation)
-    params = vae.init_autoencoder(model, jax.random.PRNGKey(0))
-    fields = jax.random.normal(jax.random.PRNGKey(1), (BATCH, *shape, len(shape)))
-    one = fields[:1]
+    keys = jax.random.split(jax.random.PRNGKey(0), seeds)
+    params = jax.vmap(lambda key: vae.init_autoencoder(model, key))(keys)
+    fields = jax.random.normal(jax.random.PRNGKey(1), (seeds, BATCH, *shape, len(shape)))
+    one = fields[:, :1]
 
     def train_loss(p, x):
         return vae.losses(model, p, x, jax.random.PRNGKey(2), momentum_weight=0.3)["total"]
@@ -55,16 +60,22 @@ def programs(shape, implementation):
     def encode_sum(p, x):
         return jnp.sum(jnp.sin(encode(p, x)))
 
-    return {"train_step": (jax.jit(jax.value_and_grad(train_loss)), (params, fields)),
-            "encode": (jax.jit(encode), (params, one)),
-            "encode_grad": (jax.jit(jax.grad(encode_sum, argnums=1)), (params, one))}
+    functions = {"train_step": jax.value_and_grad(train_loss), "encode": encode,
+                 "encode_grad": jax.grad(encode_sum, argnums=1)}
+    if seeds == 1:
+        params, fields, one = jax.tree.map(lambda leaf: leaf[0], (params, fields, one))
+    else:
+        functions = {name: jax.vmap(function) for name, function in functions.items()}
+    inputs = {"train_step": fields, "encode": one, "encode_grad": one}
+    return {name: (jax.jit(function), (params, inputs[name]))
+            for name, function in functions.items()}
 
 
-def measure(size: str, repeats: int) -> dict:
+def measure(size: str, repeats: int, seeds: int = 1) -> dict:
     import jax
 
     shape = SIZES[size]
-    built = {impl: programs(shape, impl) for impl in IMPLEMENTATIONS}
+    built = {impl: programs(shape, impl, seeds) for impl in IMPLEMENTATIONS}
     rows = {}
     for name in built["xla"]:
         outputs = {}
@@ -94,22 +105,27 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", choices=sorted(SIZES), default=None)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--seeds", type=int, default=1,
+                        help="vmap every program over this many seeds (default 1: no vmap)")
     parser.add_argument("--quick", action="store_true", help="2d32 and 3d16, 3 repeats")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
+    if args.seeds < 1:
+        parser.error("--seeds must be at least 1")
     sizes = args.sizes or (["2d32", "3d16"] if args.quick else ["2d32", "2d64", "3d32"])
     repeats = 3 if args.quick else args.repeats
 
     import jax
 
     results = {"device": str(jax.devices()[0]), "backend": jax.default_backend(),
-               "repeats": repeats, "sizes": {s: measure(s, repeats) for s in sizes}}
+               "repeats": repeats, "seeds": args.seeds,
+               "sizes": {s: measure(s, repeats, args.seeds) for s in sizes}}
     if args.json:
         print(json.dumps(results, indent=1))
         return
-    print(f"device {results['device']}, medians of {repeats}")
+    print(f"device {results['device']}, medians of {repeats}, {args.seeds} seed(s) vmapped")
     print(f"{'size':6} {'program':12} {'xla ms':>9} {'matmul ms':>10} {'speedup':>8} "
           f"{'compile s (x/m)':>16} {'temp MB (x/m)':>15}")
     for size, rows in results["sizes"].items():
