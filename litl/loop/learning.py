@@ -41,7 +41,7 @@ from flax import struct
 from litl.config import LearningConfig
 from litl.loop.replay_buffer import ReplayBuffer
 from litl.models.vae import (
-    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, loss_terms,
+    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, fit_scale, loss_terms,
 )
 
 
@@ -144,12 +144,9 @@ def fit_scale_masked(params: AutoencoderParams, fields, mask, floor=1e-6) -> Aut
       mask: (B,) bool, which fields to use.
     """
     # Select before squaring: stale slots may hold huge values whose square is inf, and inf * 0
-    # would poison the sum.
+    # would poison the sum. Zeroed entries count as empty nodes, which the fit leaves out.
     fields = jnp.where(_broadcast_mask(mask, fields), fields, 0)
-    speed_sq = jnp.sum(fields**2, axis=-1)
-    occupied = speed_sq > 0
-    rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
-    return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
+    return fit_scale(params, fields, floor)
 
 
 def fit_readout(gram, cross, ridge=1e-6):

@@ -169,11 +169,20 @@ def init_autoencoder(model: ConvAutoencoder, key, dtype=jnp.float32) -> Autoenco
 
 
 def fit_scale(params: AutoencoderParams, fields, floor=1e-6) -> AutoencoderParams:
-    """Set the input scale to the RMS velocity over occupied nodes of `fields` (B, *grid, d)."""
+    """Set the input scale to the RMS velocity over occupied nodes of `fields` (B, *grid, d).
+
+    Fields with no motion (RMS at most `floor`, e.g. a robot without gravity that the untrained
+    controller leaves at rest) say nothing about the velocity scale: the scale is kept as it
+    was. Setting it to the floor instead would multiply every later input, and the controller's
+    gradient through the features, by 1 / floor (seen: the arm under method=paper, gradient
+    norms 1e8 to inf after such a bootstrap).
+    """
     speed_sq = jnp.sum(fields**2, axis=-1)
     occupied = speed_sq > 0
     rms = jnp.sqrt(jnp.sum(speed_sq) / jnp.maximum(jnp.sum(occupied), 1))
-    return params.replace(scale=jnp.maximum(rms, floor).astype(params.scale.dtype))
+    moving = rms > floor
+    scale = jnp.where(moving, rms, params.scale).astype(params.scale.dtype)
+    return params.replace(scale=scale)
 
 
 def make_observer(model: ConvAutoencoder, window: Window | None = None):

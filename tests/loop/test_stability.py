@@ -6,6 +6,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import litl.robots
+
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
 from litl.loop.run import run
 from litl.pictures import draw_run
@@ -33,6 +35,20 @@ def test_a_blown_up_iteration_updates_nothing_and_says_why():
                   "observer", "best"):
         assert _same(getattr(after, field), getattr(blown, field)), field
     assert float(after.best.task_loss) == np.inf
+
+
+def test_a_robot_the_untrained_controller_leaves_at_rest_keeps_a_usable_observer():
+    # The arm under method=paper: no gravity, and a controller reading only the features of an
+    # empty field outputs zero, so the bootstrap rollout records nothing but zero fields. The
+    # observer's input scale must not be fitted to them (it would drop to its floor, 1e-6, and
+    # the first gradient through the features would be ~1e8 or not finite).
+    algorithm = make_algorithm(litl.robots.get("arm", dx=1 / 32), tiny_config("paper"))
+    state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
+    assert int(state.buffer.count) > 0 and float(jnp.abs(state.buffer.fields).max()) == 0.0
+    assert float(state.observer.scale) == 1.0
+    after, metrics = jax.jit(algorithm.optimize)(state)
+    assert int(metrics["skipped"]) == 0, SKIP_REASONS[int(metrics["skipped"])]
+    assert 0 < float(metrics["controller_grad_norm"]) < 1.0
 
 
 def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():

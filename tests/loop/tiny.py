@@ -9,9 +9,10 @@ import litl.robots
 from litl.config import Config
 from litl.loop.run import run
 
-def tiny_config(**changes) -> Config:
-    """The tiny run's config with `changes` (`Config.replace`: ``loop={"episodes": 3}``)."""
-    return Config().replace(
+def tiny_config(method: str = "litl", **changes) -> Config:
+    """The tiny run's config under `method` with `changes` (`Config.replace`:
+    ``loop={"episodes": 3}``)."""
+    return Config.for_method(method).replace(
         seeds=2, sim={"steps": 40},
         observer={"vae": {"latent_dim": 4, "channels": (4, 4, 8, 8, 8)},
                   "kmeans": {"clusters": 3}},

@@ -77,6 +77,21 @@ def test_scale_follows_the_data():
     np.testing.assert_allclose(fast.scale, 10 * slow.scale, rtol=1e-5)
 
 
+def test_fields_without_motion_keep_the_scale():
+    # A robot at rest (no gravity, an untrained controller that outputs zero) fills the buffer
+    # with zero fields, or round-off: the scale must stay what it was, not drop to the floor
+    # and multiply every later input by 1 / floor.
+    model = vae.ConvAutoencoder((32, 32), latent_dim=2)
+    params = vae.init_autoencoder(model, jax.random.key(0))
+    for still in (jnp.zeros((4, 32, 32, 2)), jnp.full((4, 32, 32, 2), 1e-9)):
+        assert float(vae.fit_scale(params, still).scale) == 1.0
+        fitted = vae.fit_scale(params, synthetic_fields(4))
+        np.testing.assert_allclose(vae.fit_scale(fitted, still).scale, fitted.scale)
+    # Just above the floor it is motion again.
+    slow = jnp.zeros((1, 32, 32, 2)).at[0, 3, 4, 0].set(2e-6)
+    np.testing.assert_allclose(vae.fit_scale(params, slow).scale, 2e-6, rtol=1e-6)
+
+
 def test_gradient_flows_from_actuation_to_grid_velocity():
     model = vae.ConvAutoencoder((32, 32), latent_dim=4)
     params = vae.init_autoencoder(model, jax.random.key(0))
