@@ -7,7 +7,6 @@ import jax.numpy as jnp
 import numpy as np
 
 import litl.robots
-
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
 from litl.loop.run import run
 from litl.pictures import draw_run

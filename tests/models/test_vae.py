@@ -83,9 +83,9 @@ def test_fields_without_motion_keep_the_scale():
     # and multiply every later input by 1 / floor.
     model = vae.ConvAutoencoder((32, 32), latent_dim=2)
     params = vae.init_autoencoder(model, jax.random.key(0))
+    fitted = vae.fit_scale(params, synthetic_fields(4))
     for still in (jnp.zeros((4, 32, 32, 2)), jnp.full((4, 32, 32, 2), 1e-9)):
         assert float(vae.fit_scale(params, still).scale) == 1.0
-        fitted = vae.fit_scale(params, synthetic_fields(4))
         np.testing.assert_allclose(vae.fit_scale(fitted, still).scale, fitted.scale)
     # Just above the floor it is motion again.
     slow = jnp.zeros((1, 32, 32, 2)).at[0, 3, 4, 0].set(2e-6)
