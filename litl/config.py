@@ -520,6 +520,13 @@ class LoopConfig(_Checked):
       codesign: optimize the design φ with the controller; False: control only.
       safeguards: litl's stabilizers of the optimization (`SafeguardsConfig`).
       learning: the learning phase (`LearningConfig`).
+      learning_seeds_at_once: how many seeds' learning phases run together (vmapped; the groups
+        one after another). A vmapped phase runs until its slowest seed stops; one at a time,
+        each stops at its own epoch, but a CPU computes a vmapped step a little faster.
+        "auto": on the CPU, 1 when the phase has no SGD-step budget (`learning.max_steps` null:
+        epoch-bounded phases, whose lengths differ most between seeds) and every seed otherwise;
+        every seed on other backends (`benchmarks/loop_speed.py`). It changes time, never
+        results.
     """
 
     KEY = "loop"
@@ -534,9 +541,14 @@ class LoopConfig(_Checked):
     codesign: bool = True
     safeguards: SafeguardsConfig = field(default_factory=SafeguardsConfig)
     learning: LearningConfig = field(default_factory=LearningConfig)
+    learning_seeds_at_once: Union[int, str] = "auto"
 
     def check(self):
         self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
+        at_once = self.learning_seeds_at_once
+        if at_once != "auto" and (isinstance(at_once, bool) or not isinstance(at_once, int)
+                                  or at_once < 1):
+            self._invalid("learning_seeds_at_once", "must be auto or a positive number of seeds")
         self._positive_numbers("design_learning_rate")
         if not (_number(self.alpha) and 0 < self.alpha <= 1):
             self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
@@ -614,15 +626,28 @@ class Config(_Checked):
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
         match them): method, observer, controller, sim, loop, seeds, seed."""
         tree = json_safe(dataclasses.asdict(self))
-        for memory_only in MEMORY_KEYS:      # they change memory and time, not results
-            tree["sim"].pop(memory_only)
+        for section, keys in EXECUTION_KEYS.items():   # they change memory and time only
+            for key in keys:
+                tree[section].pop(key)
         return {name: tree[name] for name in ("method", "observer", "controller", "sim", "loop",
                                               "seeds", "seed")}
 
 
-# Settings of `SimSettings` that change how much memory a run takes, never its results: not in
+# Settings that change how much memory and time a run takes, never its results: not in
 # `run.json`, so a run can be resumed with others.
-MEMORY_KEYS = ("checkpoint_every", "memory_budget")
+EXECUTION_KEYS = {"sim": ("checkpoint_every", "memory_budget"),
+                  "loop": ("learning_seeds_at_once",)}
+
+
+def seeds_at_once(loop: LoopConfig, seeds: int) -> int:
+    """`loop.learning_seeds_at_once` resolved for `seeds` seeds on this backend."""
+    import jax
+
+    setting = loop.learning_seeds_at_once
+    if setting == "auto":
+        epoch_bounded = loop.learning.max_steps is None
+        return 1 if jax.default_backend() == "cpu" and epoch_bounded else seeds
+    return min(int(setting), seeds)
 
 
 def json_safe(tree):

@@ -100,6 +100,22 @@ def test_bad_arguments_are_refused_before_anything_runs(tmp_path, capsys, argv, 
     assert not (tmp_path / "out").exists()
 
 
+def test_a_run_of_another_size_in_out_is_refused_before_anything_runs(tmp_path, capsys):
+    out = tmp_path / "claims"
+    old = out / "runs/paper/fig4b/kmeans"
+    old.mkdir(parents=True)
+    (old / "run.json").write_text(json.dumps(
+        {"config": {"seeds": 2, "loop": {"episodes": 10, "iterations": 10}}}))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--out", str(out), "--scale", "smoke", "--panels", "fig4b", "--methods", "paper"])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err
+    assert "was run with seeds=2 loop.episodes=10 loop.iterations=10" in error
+    assert "another --out" in error
+    assert sorted(p.name for p in out.rglob("*")) == ["fig4b", "kmeans", "paper", "run.json",
+                                                      "runs"]
+
+
 @pytest.mark.slow
 def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
     out = tmp_path / "claims"

@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(args, command: str) -> int:
     from litl.app import compose
-    from litl.claims.suite import ClaimsError, finished_records
+    from litl.claims.suite import ClaimsError, check_sizes, finished_records
 
     scale = SCALES[args.scale]
     seeds = scale.seeds if args.seeds is None else args.seeds
@@ -80,6 +80,7 @@ def _main(args, command: str) -> int:
             print(f"{cell.name}: {done} records  python -m litl "
                   f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}")
         return 0
+    check_sizes(out, suite, config_of)
     if not args.report_only:
         run_suite(out, suite, scale, seeds)
     groups, unfinished = load_groups(out, suite, config_of)

@@ -12,6 +12,8 @@ batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
   in the simultaneous ablation).
 * `learn(state)`: the learning phase on a copy Θ′ (even train/validation split, minibatch epochs,
   early stopping), then Θ ← α·Θ′ + (1 − α)·Θ.
+  `learn_seeds(states, at_once)` is `learn` for a batch of seeds whose phases run `at_once` seeds
+  at a time (`loop.learning_seeds_at_once`).
 * `evaluate(state)`: the task loss of the current θ, φ, Θ without a gradient (Table 1's "before").
 
 An iteration whose rollout blew up or lost particles, or whose loss or gradient is not finite, is
@@ -156,6 +158,8 @@ class Algorithm:
     bootstrap: Callable[[LoopState], tuple[LoopState, LearningStats]]
     optimize: Callable[[LoopState], tuple[LoopState, dict]]
     learn: Callable[[LoopState], tuple[LoopState, LearningStats]]
+    # learn_seeds(states, at_once): `learn` for a batch of seeds, `at_once` phases at a time.
+    learn_seeds: Callable[[LoopState, int], tuple[LoopState, LearningStats]]
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     observer: Observer
@@ -231,7 +235,7 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
                      scene=scene, observer=observer, schedule=schedule,
                      controller=_make_controller(robot, config.controller))
     return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, optimize=pieces.optimize,
-                     learn=pieces.learn, evaluate=pieces.evaluate, steps=steps,
+                     learn=pieces.learn, learn_seeds=pieces.learn_seeds, evaluate=pieces.evaluate, steps=steps,
                      observer=observer, schedule=schedule, policy=pieces.policy,
                      controller=pieces.controller, field=pieces.field,
                      simulate=pieces.simulate,
@@ -404,9 +408,27 @@ class _Pieces:
         if the controller does no worse with it (`loop.safeguards.update_tolerance`; `check` False: kept)."""
         if self.learner is None:
             return state, state.stats
-        alpha = self.config.loop.alpha if alpha is None else alpha
         state, key = self.split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
+        return self.adopt(state, trained, stats, alpha, check)
+
+    def learn_seeds(self, states: LoopState, at_once: int):
+        """`learn` for a batch of seeds (every leaf's leading axis): the learning phases run
+        `at_once` seeds at a time (vmapped within a group, the groups one after another), the
+        rest vmapped. A vmapped phase runs until its slowest seed stops; one seed at a time
+        stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
+        if self.learner is None:
+            return states, states.stats
+        states, keys = jax.vmap(self.split_key)(states)
+        trained, stats = jax.lax.map(lambda seed: self.learner.phase(*seed),
+                                     (states.observer, states.buffer, keys), batch_size=at_once)
+        return jax.vmap(self.adopt)(states, trained, stats)
+
+    def adopt(self, state: LoopState, trained, stats: LearningStats, alpha=None,
+              check: bool = True):
+        """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats`, kept only
+        if the controller does no worse with it (see `learn`)."""
+        alpha = self.config.loop.alpha if alpha is None else alpha
         updated = soft_update(state.observer, trained, alpha)
         tolerance = self.config.loop.safeguards.update_tolerance
         if check and tolerance is not None:

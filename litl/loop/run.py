@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from litl.errors import UserError
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -43,7 +44,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
-from litl.config import Config, flatten, upgrade
+from litl.config import Config, flatten, seeds_at_once, upgrade
 from litl.loop.progress import Progress, say
 from litl.loop.replay_buffer import newest
 from litl.robots.robot import Robot
@@ -212,7 +213,8 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episo
     loop = config.loop
     seeds = [config.seed + s for s in range(config.seeds)]
     logger = make_logger(config.output.logger, run_dir, seeds, loop.iterations, wanted)
-    shell = _Shell(run_dir, algorithm, seeds, logger)
+    shell = _Shell(run_dir, algorithm, seeds, logger,
+                   seeds_at_once(loop, len(seeds)))
     try:
         state, counters = shell.start()
         episodes = loop.episodes if stop_after_episodes is None else min(
@@ -275,13 +277,16 @@ class _Shell:
     """The impure side of one run: the seeds' batched (jit of vmap) functions, the metrics and
     learning files, the checkpoints."""
 
-    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger):
+    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger,
+                 learning_seeds_at_once: int):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
         self.reconstruct = None
         self.plan_said = False
         batched = lambda f: jax.jit(jax.vmap(f))
         self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
-        self.learn, self.evaluate = batched(algorithm.learn), batched(algorithm.evaluate)
+        self.learn = jax.jit(functools.partial(algorithm.learn_seeds,
+                                               at_once=learning_seeds_at_once))
+        self.evaluate = batched(algorithm.evaluate)
         self.checkpoints = Checkpoints(run_dir / "checkpoints")
         self.metrics_file = run_dir / "metrics.jsonl"
         self.learning_file = run_dir / "learning.jsonl"

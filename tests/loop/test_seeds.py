@@ -1,5 +1,6 @@
 """Seeds: one computation vmapped over seeds equals the seeds run one at a time; several devices."""
 
+import functools
 import json
 import os
 import pathlib
@@ -10,6 +11,7 @@ import jax
 import numpy as np
 import pytest
 
+from litl.config import Config, SettingsError, seeds_at_once
 from litl.loop.algorithm import make_algorithm, seed_slice, stack_seeds
 from litl.loop.run import run
 from tests.loop.tiny import tiny_config, tiny_robot
@@ -48,6 +50,37 @@ def test_vmapped_seeds_equal_sequential_runs(x64):
             np.testing.assert_allclose(batched, single, rtol=1e-6, atol=1e-9)
     # Different seeds really are different runs.
     assert measured[0][0] != measured[0][1]
+
+
+def test_learning_phases_run_one_or_two_seeds_at_a_time_equal_the_vmapped_phases(x64):
+    """`loop.learning_seeds_at_once` changes time only: three seeds' learning phases one at a
+    time, two then one, or all vmapped give the same observers, states and statistics."""
+    algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
+    states = stack_seeds([algorithm.init(s) for s in (3, 4, 5)])
+    states, _ = jax.jit(jax.vmap(algorithm.bootstrap))(states)
+    expected = jax.jit(jax.vmap(algorithm.learn))(states)
+    for at_once in (1, 2):
+        got = jax.jit(functools.partial(algorithm.learn_seeds, at_once=at_once))(states)
+        for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected)):
+            np.testing.assert_allclose(mine, theirs, rtol=1e-6, atol=1e-9)
+    # The phases learned something, and each seed its own observer.
+    learned = jax.tree.leaves(expected[0].observer)[0]
+    assert not np.allclose(learned[0], learned[1])
+    assert np.all(np.asarray(expected[1].epochs_used) > 0)
+
+
+def test_seeds_at_once_resolves_auto_by_backend_and_phase_and_refuses_bad_values():
+    paper, litl_ = Config.for_method("paper"), Config.for_method("litl")
+    # CPU: epoch-bounded phases (the paper's) one seed at a time, step-capped ones (litl's) all.
+    assert seeds_at_once(paper.loop, 10) == 1
+    assert seeds_at_once(litl_.loop, 10) == 10
+    assert seeds_at_once(paper.replace(loop={"learning_seeds_at_once": 4}).loop, 10) == 4
+    assert seeds_at_once(paper.replace(loop={"learning_seeds_at_once": 4}).loop, 2) == 2
+    for bad in (0, -1, "some", 1.5, True):
+        with pytest.raises(SettingsError, match="loop.learning_seeds_at_once"):
+            paper.replace(loop={"learning_seeds_at_once": bad})
+    # It changes time only: not among the settings a run records and resumes by.
+    assert "learning_seeds_at_once" not in paper.run_settings()["loop"]
 
 
 # Sharding concerns how seeds are placed, not what they run: k-means (no learning phase to compile)
