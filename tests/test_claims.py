@@ -3,12 +3,14 @@
 import csv
 import json
 import pathlib
+import time
 
 import numpy as np
 import pytest
 
 from litl.claims import CLAIMS, cells, judge, welch_p_lower
 from litl.claims.cli import main
+from litl.claims.suite import SCALES, run_suite
 from litl.claims.verdicts import CONTRADICTED, HOLDS, NO_DATA, NOT_RESOLVED
 from litl.report.runs import Group, Run
 
@@ -114,6 +116,31 @@ def test_a_run_of_another_size_in_out_is_refused_before_anything_runs(tmp_path, 
     assert "another --out" in error
     assert sorted(p.name for p in out.rglob("*")) == ["fig4b", "kmeans", "paper", "run.json",
                                                       "runs"]
+
+
+def test_an_interrupted_cell_keeps_its_time_and_resuming_adds_to_it(tmp_path, monkeypatch):
+    import litl.app
+
+    parts = []
+
+    def part_of_a_run(config, run_dir):      # one record, 0.2 s; the first part is interrupted
+        parts.append(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        with open(run_dir / "metrics.jsonl", "a") as file:
+            file.write("{}\n")
+        time.sleep(0.2)
+        if len(parts) == 1:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(litl.app, "run_experiment", part_of_a_run)
+    suite = cells(("fig4b",), ("paper",))[:1]
+    with pytest.raises(KeyboardInterrupt):
+        run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None)
+    first = json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"]
+    assert first >= 0.2
+    assert run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None) == {
+        "paper/fig4b/vae": "ran"}
+    assert json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"] >= first + 0.2
 
 
 @pytest.mark.slow

@@ -186,8 +186,9 @@ def finished_records(run_dir: pathlib.Path) -> int:
 def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> dict:
     """Run every unfinished cell of `suite` under `out`, one after another.
 
-    Each cell's wall time is added to `<out>/timings.json` ({cell name: seconds}, the time of
-    the run that finished it; a cell resumed after a kill counts only its last part).
+    Each cell's wall time goes into `<out>/timings.json` ({cell name: seconds}): a cell
+    interrupted with Ctrl-C (SIGINT) keeps the time it ran, and resuming it adds to that; one
+    killed otherwise loses the time of its interrupted part.
 
     Returns:
       {cell name: "ran" | "done already"}.
@@ -210,10 +211,14 @@ def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> di
             continue
         say(f"litl.claims: [{number}/{len(suite)}] {cell.name}: python -m litl "
             f"{' '.join(overrides)} hydra.run.dir={run_dir}")
+        # A resumed cell adds to the time its earlier parts recorded.
+        before = timings.get(cell.name, 0.0) if finished_records(run_dir) else 0.0
         start = time.perf_counter()
-        run_experiment(config, run_dir)
-        timings[cell.name] = round(time.perf_counter() - start, 1)
-        timings_path.write_text(json.dumps(timings, indent=1) + "\n")
+        try:
+            run_experiment(config, run_dir)
+        finally:       # an interrupted cell (Ctrl-C) keeps the time it ran
+            timings[cell.name] = round(before + time.perf_counter() - start, 1)
+            timings_path.write_text(json.dumps(timings, indent=1) + "\n")
         status[cell.name] = "ran"
         jax.clear_caches()     # one cell's compiled programs are no use to the next
     return status
