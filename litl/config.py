@@ -520,13 +520,13 @@ class LoopConfig(_Checked):
       codesign: optimize the design φ with the controller; False: control only.
       safeguards: litl's stabilizers of the optimization (`SafeguardsConfig`).
       learning: the learning phase (`LearningConfig`).
-      learning_seeds_at_once: how many seeds' learning phases run together (vmapped; the groups
-        one after another). A vmapped phase runs until its slowest seed stops; one at a time,
-        each stops at its own epoch, but a CPU computes a vmapped step a little faster.
-        "auto": on the CPU, 1 when the phase has no SGD-step budget (`learning.max_steps` null:
-        epoch-bounded phases, whose lengths differ most between seeds) and every seed otherwise;
-        every seed on other backends (`benchmarks/loop_speed.py`). It changes time, never
-        results.
+      learning_seeds_at_once: None (the default): every seed's learning phase vmapped, as the
+        optimization; N: N seeds' phases vmapped together, the groups one after another. A
+        vmapped phase runs until its slowest seed stops; 1 stops each at its own epoch, which on
+        the CPU made epoch-bounded phases (`method=paper`) 1.1-1.4x faster
+        (`benchmarks/loop_speed.py`, docs/results/benchmarks.md). A different grouping rounds
+        differently, and early stopping can turn that into another epoch count, so a run is
+        another sample of the same method, not the same numbers; it is not recorded in run.json.
     """
 
     KEY = "loop"
@@ -541,14 +541,11 @@ class LoopConfig(_Checked):
     codesign: bool = True
     safeguards: SafeguardsConfig = field(default_factory=SafeguardsConfig)
     learning: LearningConfig = field(default_factory=LearningConfig)
-    learning_seeds_at_once: Union[int, str] = "auto"
+    learning_seeds_at_once: Optional[int] = None
 
     def check(self):
         self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
-        at_once = self.learning_seeds_at_once
-        if at_once != "auto" and (isinstance(at_once, bool) or not isinstance(at_once, int)
-                                  or at_once < 1):
-            self._invalid("learning_seeds_at_once", "must be auto or a positive number of seeds")
+        self._positive_ints("learning_seeds_at_once", optional=("learning_seeds_at_once",))
         self._positive_numbers("design_learning_rate")
         if not (_number(self.alpha) and 0 < self.alpha <= 1):
             self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
@@ -633,21 +630,16 @@ class Config(_Checked):
                                               "seeds", "seed")}
 
 
-# Settings that change how much memory and time a run takes, never its results: not in
-# `run.json`, so a run can be resumed with others.
+# Settings that change how much memory and time a run takes, not what it computes (at most its
+# rounding): not in `run.json`, so a run can be resumed with others.
 EXECUTION_KEYS = {"sim": ("checkpoint_every", "memory_budget"),
                   "loop": ("learning_seeds_at_once",)}
 
 
 def seeds_at_once(loop: LoopConfig, seeds: int) -> int:
-    """`loop.learning_seeds_at_once` resolved for `seeds` seeds on this backend."""
-    import jax
-
+    """How many of `seeds` seeds' learning phases run together (`loop.learning_seeds_at_once`)."""
     setting = loop.learning_seeds_at_once
-    if setting == "auto":
-        epoch_bounded = loop.learning.max_steps is None
-        return 1 if jax.default_backend() == "cpu" and epoch_bounded else seeds
-    return min(int(setting), seeds)
+    return seeds if setting is None else min(setting, seeds)
 
 
 def json_safe(tree):

@@ -2,7 +2,9 @@
 
 import csv
 import json
+import os
 import pathlib
+import signal
 import time
 
 import numpy as np
@@ -118,26 +120,28 @@ def test_a_run_of_another_size_in_out_is_refused_before_anything_runs(tmp_path, 
                                                       "runs"]
 
 
-def test_an_interrupted_cell_keeps_its_time_and_resuming_adds_to_it(tmp_path, monkeypatch):
+def test_a_cell_stopped_by_kill_keeps_its_time_and_resuming_adds_to_it(tmp_path, monkeypatch):
     import litl.app
 
     parts = []
 
-    def part_of_a_run(config, run_dir):      # one record, 0.2 s; the first part is interrupted
+    def part_of_a_run(config, run_dir):      # one record, 0.2 s; the first part gets SIGTERM
         parts.append(run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)
         with open(run_dir / "metrics.jsonl", "a") as file:
             file.write("{}\n")
         time.sleep(0.2)
         if len(parts) == 1:
-            raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGTERM)
 
     monkeypatch.setattr(litl.app, "run_experiment", part_of_a_run)
+    handler = signal.getsignal(signal.SIGTERM)
     suite = cells(("fig4b",), ("paper",))[:1]
     with pytest.raises(KeyboardInterrupt):
         run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None)
     first = json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"]
     assert first >= 0.2
+    assert signal.getsignal(signal.SIGTERM) == handler      # the caller's handler is back
     assert run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None) == {
         "paper/fig4b/vae": "ran"}
     assert json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"] >= first + 0.2

@@ -8,9 +8,12 @@ finished yet (a killed suite resumes where it stopped, a finished cell is not to
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import pathlib
+import signal
+import threading
 import time
 
 from litl.config import Method
@@ -187,12 +190,36 @@ def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> di
     """Run every unfinished cell of `suite` under `out`, one after another.
 
     Each cell's wall time goes into `<out>/timings.json` ({cell name: seconds}): a cell
-    interrupted with Ctrl-C (SIGINT) keeps the time it ran, and resuming it adds to that; one
-    killed otherwise loses the time of its interrupted part.
+    stopped with Ctrl-C or `kill PID` (SIGINT, SIGTERM) keeps the time it ran, and resuming it
+    adds to that; one killed otherwise (SIGKILL) loses the time of its interrupted part.
 
     Returns:
       {cell name: "ran" | "done already"}.
     """
+    with _stopped_by_sigterm():
+        return _run_cells(out, suite, scale, seeds, say)
+
+
+@contextlib.contextmanager
+def _stopped_by_sigterm():
+    """`kill PID` (SIGTERM) stops the suite as Ctrl-C does, once the computation under way
+    returns, so the running cell keeps its time (a suite started in the background with `&`
+    ignores Ctrl-C's SIGINT)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt(f"stopped by signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run_cells(out, suite: list[Cell], scale: Scale, seeds: int, say) -> dict:
     import jax
 
     from litl.app import compose, run_experiment
@@ -216,7 +243,7 @@ def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> di
         start = time.perf_counter()
         try:
             run_experiment(config, run_dir)
-        finally:       # an interrupted cell (Ctrl-C) keeps the time it ran
+        finally:       # an interrupted cell (Ctrl-C, SIGTERM) keeps the time it ran
             timings[cell.name] = round(before + time.perf_counter() - start, 1)
             timings_path.write_text(json.dumps(timings, indent=1) + "\n")
         status[cell.name] = "ran"
