@@ -52,18 +52,17 @@ def test_vmapped_seeds_equal_sequential_runs(x64):
     assert measured[0][0] != measured[0][1]
 
 
-def test_learning_phases_run_one_or_two_seeds_at_a_time_equal_the_vmapped_phases(x64):
-    """`loop.learning_seeds_at_once` groups the same computation: three seeds' learning phases
-    one at a time, two then one, or all vmapped give the same observers, states and statistics
-    (float64; in float32 their rounding differs and early stopping can amplify it)."""
+def test_learning_phases_run_one_seed_at_a_time_equal_the_vmapped_phases(x64):
+    """`loop.learning_seeds_at_once` groups the same computation: two seeds' learning phases one
+    at a time or vmapped give the same observers, states and statistics (float64; in float32
+    their rounding differs and early stopping can amplify it)."""
     algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
-    states = stack_seeds([algorithm.init(s) for s in (3, 4, 5)])
+    states = stack_seeds([algorithm.init(s) for s in (3, 4)])
     states, _ = jax.jit(jax.vmap(algorithm.bootstrap))(states)
     expected = jax.jit(jax.vmap(algorithm.learn))(states)
-    for at_once in (1, 2):
-        got = jax.jit(functools.partial(algorithm.learn_seeds, at_once=at_once))(states)
-        for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected)):
-            np.testing.assert_allclose(mine, theirs, rtol=1e-6, atol=1e-9)
+    got = jax.jit(functools.partial(algorithm.learn_seeds, at_once=1))(states)
+    for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected)):
+        np.testing.assert_allclose(mine, theirs, rtol=1e-6, atol=1e-9)
     # The phases learned something, and each seed its own observer.
     learned = jax.tree.leaves(expected[0].observer)[0]
     assert not np.allclose(learned[0], learned[1])
