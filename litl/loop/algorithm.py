@@ -417,6 +417,8 @@ class _Pieces:
         `at_once` seeds at a time (vmapped within a group, the groups one after another), the
         rest vmapped. A vmapped phase runs until its slowest seed stops; one seed at a time
         stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
+        if at_once >= jax.tree.leaves(states)[0].shape[0]:
+            return jax.vmap(self.learn)(states)       # every seed together: the plain vmap
         if self.learner is None:
             return states, states.stats
         states, keys = jax.vmap(self.split_key)(states)
