@@ -4,8 +4,9 @@
 batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
 
 * `init(seed)`: random controller θ and observer Θ, design φ0, optimizer states, empty buffer.
-* `bootstrap(state)`: one rollout of the untrained controller fills the buffer; the observer is
-  trained on it and Θ takes the trained copy whole (a random Θ has nothing worth keeping).
+* `bootstrap(state)`: one rollout of the untrained controller fills the buffer (`fill`); the
+  observer is trained on it and Θ takes the trained copy whole (a random Θ has nothing worth
+  keeping): `learn(fill(state), first=True)`.
 * `optimize(state)`: one optimization iteration — rollout with the fixed observer Θ, task loss,
   gradients w.r.t. θ and φ through the whole simulation, Adam, projection of φ into its bounds,
   snapshots into the replay buffer (or replacing it without replay; or one observer step on them
@@ -156,10 +157,15 @@ class Algorithm:
 
     init: Callable[[int], LoopState]
     bootstrap: Callable[[LoopState], tuple[LoopState, LearningStats]]
+    # fill(state): the bootstrap's rollout into the buffer; bootstrap(state) is
+    # learn(fill(state), first=True).
+    fill: Callable[[LoopState], LoopState]
     optimize: Callable[[LoopState], tuple[LoopState, dict]]
-    learn: Callable[[LoopState], tuple[LoopState, LearningStats]]
-    # learn_seeds(states, at_once): `learn` for a batch of seeds, `at_once` phases at a time.
-    learn_seeds: Callable[[LoopState, int], tuple[LoopState, LearningStats]]
+    # learn(state, first=False); first: the bootstrap's phase (Θ takes Θ′ whole, unchecked).
+    learn: Callable[..., tuple[LoopState, LearningStats]]
+    # learn_seeds(states, at_once, first=False): `learn` for a batch of seeds, `at_once` phases
+    # at a time.
+    learn_seeds: Callable[..., tuple[LoopState, LearningStats]]
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     observer: Observer
@@ -234,7 +240,8 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     pieces = _Pieces(robot=robot, config=config, dtype=dtype, steps=steps, stride=stride,
                      scene=scene, observer=observer, schedule=schedule,
                      controller=_make_controller(robot, config.controller))
-    return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, optimize=pieces.optimize,
+    return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, fill=pieces.fill,
+                     optimize=pieces.optimize,
                      learn=pieces.learn, learn_seeds=pieces.learn_seeds, evaluate=pieces.evaluate, steps=steps,
                      observer=observer, schedule=schedule, policy=pieces.policy,
                      controller=pieces.controller, field=pieces.field,
@@ -403,40 +410,48 @@ class _Pieces:
         key, sub = jax.random.split(jax.random.wrap_key_data(state.key))
         return state.replace(key=jax.random.key_data(key)), sub
 
-    def learn(self, state: LoopState, alpha=None, check: bool = True):
+    def learn(self, state: LoopState, first=False):
         """A learning phase on a copy Θ′, then Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`), kept only
-        if the controller does no worse with it (`loop.safeguards.update_tolerance`; `check` False: kept)."""
+        if the controller does no worse with it (`loop.safeguards.update_tolerance`).
+
+        `first`: the bootstrap's phase, after which Θ takes Θ′ whole, unchecked (a random Θ has
+        nothing worth keeping). A Python bool, or a traced () bool so that the bootstrap's phase
+        and the later ones are one compiled program (the run shell passes it so)."""
         if self.learner is None:
             return state, state.stats
         state, key = self.split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
-        return self.adopt(state, trained, stats, alpha, check)
+        return self.adopt(state, trained, stats, first)
 
-    def learn_seeds(self, states: LoopState, at_once: int):
+    def learn_seeds(self, states: LoopState, at_once: int, first=False):
         """`learn` for a batch of seeds (every leaf's leading axis): the learning phases run
         `at_once` seeds at a time (vmapped within a group, the groups one after another), the
         rest vmapped. A vmapped phase runs until its slowest seed stops; one seed at a time
         stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
-        if at_once >= jax.tree.leaves(states)[0].shape[0]:
-            return jax.vmap(self.learn)(states)       # every seed together: the plain vmap
+        if at_once >= jax.tree.leaves(states)[0].shape[0]:     # every seed together: the plain vmap
+            return jax.vmap(lambda state: self.learn(state, first))(states)
         if self.learner is None:
             return states, states.stats
         states, keys = jax.vmap(self.split_key)(states)
         trained, stats = jax.lax.map(lambda seed: self.learner.phase(*seed),
                                      (states.observer, states.buffer, keys), batch_size=at_once)
-        return jax.vmap(self.adopt)(states, trained, stats)
+        return jax.vmap(lambda *seed: self.adopt(*seed, first))(states, trained, stats)
 
-    def adopt(self, state: LoopState, trained, stats: LearningStats, alpha=None,
-              check: bool = True):
+    def adopt(self, state: LoopState, trained, stats: LearningStats, first=False):
         """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats`, kept only
-        if the controller does no worse with it (see `learn`)."""
-        alpha = self.config.loop.alpha if alpha is None else alpha
-        updated = soft_update(state.observer, trained, alpha)
+        if the controller does no worse with it; after the `first` phase Θ ← Θ′ (see `learn`)."""
+        updated = soft_update(state.observer, trained, self.config.loop.alpha)
         tolerance = self.config.loop.safeguards.update_tolerance
-        if check and tolerance is not None:
+        if first is not True and tolerance is not None:
             accepted = self.update_is_safe(state, updated, tolerance)
+            if first is not False:
+                accepted = accepted | first
             updated = keep_if(accepted, updated, state.observer)
             stats = stats.replace(update_accepted=accepted)
+        if first is True:
+            updated = trained
+        elif first is not False:
+            updated = keep_if(first, trained, updated)
         return state.replace(observer=updated, stats=stats), stats
 
     def update_is_safe(self, state: LoopState, updated, tolerance: float):
@@ -448,15 +463,18 @@ class _Pieces:
         return jnp.isfinite(after) & (~jnp.isfinite(before) |
                                       (after <= before + tolerance * jnp.abs(before)))
 
-    def bootstrap(self, state: LoopState):
-        """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
+    def fill(self, state: LoopState):
+        """One rollout of the current controller fills the buffer (the bootstrap's first half)."""
         total, (_, trajectory) = self.simulate(state.controller, state.design, state.observer)
         # A failed rollout's snapshots never enter the buffer.
         healthy = skip_reason(trajectory.health, total, jnp.zeros((), self.dtype)) == 0
-        buffer = keep_if(healthy, add(state.buffer, trajectory.snapshots,
-                                      self.snapshot_velocities(trajectory)), state.buffer)
-        # A random Θ has nothing worth keeping: the first trained copy replaces it whole.
-        return self.learn(state.replace(buffer=buffer), alpha=1.0, check=False)
+        return state.replace(buffer=keep_if(healthy, add(state.buffer, trajectory.snapshots,
+                                                         self.snapshot_velocities(trajectory)),
+                                            state.buffer))
+
+    def bootstrap(self, state: LoopState):
+        """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
+        return self.learn(self.fill(state), first=True)
 
     def optimize(self, state: LoopState):
         """One optimization iteration (see the module docstring); returns (state, metrics)."""

@@ -283,9 +283,16 @@ class _Shell:
         self.reconstruct = None
         self.plan_said = False
         batched = lambda f: jax.jit(jax.vmap(f))
-        self.bootstrap, self.optimize = batched(algorithm.bootstrap), batched(algorithm.optimize)
+        self.optimize = batched(algorithm.optimize)
         self.learn = jax.jit(functools.partial(algorithm.learn_seeds,
                                                at_once=learning_seeds_at_once))
+        if algorithm.retrains:
+            # The bootstrap's learning phase is the later phases' program, `first` passed as a
+            # value, not a second compilation of it.
+            fill = batched(algorithm.fill)
+            self.bootstrap = lambda states: self.learn(fill(states), first=True)
+        else:
+            self.bootstrap = batched(algorithm.bootstrap)
         self.evaluate = batched(algorithm.evaluate)
         self.checkpoints = Checkpoints(run_dir / "checkpoints")
         self.metrics_file = run_dir / "metrics.jsonl"
@@ -359,7 +366,7 @@ class _Shell:
     def learning_phase(self, state, episode: int):
         """The learning phase after `episode`, its statistics appended to learning.jsonl."""
         phase_start = time.perf_counter()
-        state, stats = jax.block_until_ready(self.learn(state))
+        state, stats = jax.block_until_ready(self.learn(state, first=False))
         phase = _learning_records(stats, self.seeds, episode + 1,
                                   time.perf_counter() - phase_start)
         with open(self.learning_file, "a") as log:

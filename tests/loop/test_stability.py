@@ -108,6 +108,17 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     object.__setattr__(pieces, "update_is_safe", lambda *args: jnp.asarray(True))
     taken, stats = algorithm.learn(state)
     assert bool(stats.update_accepted) and not _same(taken.observer, state.observer)
+    # `first` passed as a value (the run shell's one program for the bootstrap's phase and the
+    # later ones): the first phase takes Θ′ whole even where the check refuses, as the bootstrap
+    # does; a later one is refused.
+    object.__setattr__(pieces, "update_is_safe", lambda *args: jnp.asarray(False))
+    learn = jax.jit(algorithm.learn)
+    first, stats = learn(jax.jit(algorithm.fill)(algorithm.init(0)), first=True)
+    assert bool(stats.update_accepted)
+    for mine, bootstrapped in zip(jax.tree.leaves(first.observer), jax.tree.leaves(state.observer)):
+        np.testing.assert_allclose(mine, bootstrapped, rtol=1e-5, atol=1e-7)
+    later, stats = learn(state, first=False)
+    assert not bool(stats.update_accepted) and _same(later.observer, state.observer)
     # None: the paper's loop, never checked.
     unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": None}}))
     _, stats = unchecked.learn(state)
