@@ -32,8 +32,8 @@ def test_relative_error_and_bad_arguments(capsys):
     assert relative_error(0.0, 0.0) == 0.0
     for argv, message in ((["--steps", "0"], "--steps"), (["--eps", "2"], "--eps"),
                           (["robot=nosuch"], "robot/nosuch"),
-                          (["robot=biped", "robot.resolution=smoke", "--steps", "1"],
-                           "hardly moved")):
+                          (["robot=biped", "robot.resolution=smoke", "observer=kmeans",
+                            "--steps", "1"], "hardly moved")):
         with pytest.raises(SystemExit) as exit_info:
             main(argv)
         assert exit_info.value.code == 2
