@@ -83,7 +83,9 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
       color: ``"actuation"`` or ``"stiffness"`` (the learned Young's modulus per region).
       stride: simulation steps per animation frame.
       gait: also measure and draw how it walked (`litl.viz.draw_gait`: each foot's lifts and
-        slip, a side view) into `<out stem>_gait.png` and the summary's ``gait``.
+        slip, the pace over the second half, the stance's change, a side view) into
+        `<out stem>_gait.png` and the summary's ``gait``; replaying more `steps` than the run's
+        tells a steady gait (it keeps its pace) from a lunge or a stretch (it does not).
 
     Returns:
       The summary written to `<out>.json` (seed, steps, task_loss, components, recorded_loss,
@@ -236,6 +238,15 @@ def main(argv: list[str] | None = None) -> int:
             f" (the run recorded {recorded:.6g} at its {summary['run_steps']} steps)")
     print(f"litl.replay: seed {summary['seed']}, {summary['steps']} steps: task loss "
           f"{summary['task_loss'] + 0.0:.6g}{same}; wrote {', '.join(summary['files'])}")
+    if "gait" in summary:
+        gait = summary["gait"]
+        feet = "; ".join(f"{foot['travel']:.3g} / {foot['lifted_fraction']:.0%} / "
+                         f"{'-' if foot['slip'] is None else format(foot['slip'], '.2f')}"
+                         for foot in gait["feet"])
+        print(f"litl.replay: gait: the centroid went {gait['centroid_travel']:.3g} in "
+              f"{gait['duration']:.3g} s, {gait['late_speed']:.3g} per second over the second "
+              f"half; the stance grew {gait['stance_change']:.3g}; feet, back to front (travel "
+              f"/ lifted / slip): {feet}")
     return 0
 
 

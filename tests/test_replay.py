@@ -32,11 +32,16 @@ def test_replay_reproduces_the_recorded_final_and_best_losses(finished_run, tmp_
     assert best["task_loss"] == pytest.approx(best["recorded_loss"], abs=1e-6)
 
 
-def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_path):
+def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_path, capsys):
     out = tmp_path / "walk.gif"
     assert main([str(finished_run), "--seed", "1", "--steps", "60", "--out", str(out),
-                 "--color", "stiffness", "--stride", "5"]) == 0
+                 "--color", "stiffness", "--stride", "5", "--gait"]) == 0
     summary = json.loads(out.with_suffix(".json").read_text())
+    # --gait: the gait picture, its numbers in the summary and a line that says them.
+    assert (tmp_path / "walk_gait.png").stat().st_size > 1000
+    gait = summary["gait"]
+    assert len(gait["feet"]) == 2 and np.isfinite([gait["late_speed"], gait["stance_change"]]).all()
+    assert "per second over the second half" in capsys.readouterr().out
     assert summary["steps"] == 60 and summary["seed"] == 1
     with Image.open(out) as gif:
         assert gif.n_frames == 12                                 # 60 steps, one frame per 5

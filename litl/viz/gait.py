@@ -65,10 +65,15 @@ def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
       frame_dt: seconds between frames (> 0).
 
     Returns:
-      A dict: ``centroid_travel`` (x, domain units), ``duration`` (s), and ``feet``, one dict per
-      foot (`find_feet` order) with ``rest_x``, ``travel`` (x), ``lifted_fraction`` (of frames),
-      ``liftoffs`` (times it left the floor), ``max_height`` above the floor, and ``slip`` (share of
-      its |x| travel made while down; None if it did not move).
+      A dict: ``centroid_travel`` (x, domain units), ``duration`` (s), ``late_speed`` (the
+      centroid's x travel per second over the recording's second half: a gait keeps its pace, a
+      lunge or a body stretching forward does not), ``stance_change`` (how much longer the
+      stance, the front foot's x minus the back foot's, is at the end than at the start: a body
+      that stretches or collapses between its feet shows it here, a gait keeps it near 0), and
+      ``feet``, one dict per foot (`find_feet` order) with ``rest_x``, ``travel`` (x),
+      ``lifted_fraction`` (of frames), ``liftoffs`` (times it left the floor), ``max_height``
+      above the floor, and ``slip`` (share of its |x| travel made while down; None if it did
+      not move).
     """
     positions = np.asarray(positions, np.float64)
     if positions.ndim != 3 or positions.shape[1:] != (layout.n_particles, layout.dim) \
@@ -96,8 +101,13 @@ def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
             "slip": float(grounded_moves[:, i].sum() / total) if total > 1e-9 else None,
         })
     centroid = positions[:, :, 0].mean(axis=1)
+    half = (len(positions) - 1) // 2
+    late_speed = (centroid[-1] - centroid[half]) / ((len(positions) - 1 - half) * frame_dt)
+    stance = xs[:, -1] - xs[:, 0]         # feet are ordered back to front
     return {"centroid_travel": float(centroid[-1] - centroid[0]),
-            "duration": float((len(positions) - 1) * frame_dt), "feet": summary}
+            "duration": float((len(positions) - 1) * frame_dt),
+            "late_speed": float(late_speed), "stance_change": float(stance[-1] - stance[0]),
+            "feet": summary}
 
 
 def draw_gait(robot, positions, frame_dt: float, path=None, frames: int = 8):

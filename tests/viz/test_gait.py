@@ -46,6 +46,28 @@ def test_stepping_has_no_slip_and_sliding_is_all_slip():
     assert gait["duration"] == pytest.approx(0.95)
 
 
+def test_a_steady_pace_is_told_from_a_lunge_and_a_stretch():
+    """late_speed: a body moving at 0.4 per second keeps it; one that lunges 0.2 forward in its
+    first half and stands keeps none. stance_change: the front foot pushed 0.1 ahead of the body
+    (a stretch) shows as a 0.1 longer stance; the moving body's stance stays as it was."""
+    layout = litl.robots.get("quadruped").layout
+    rest = np.asarray(layout.positions)
+    frames, dt = 21, 0.05
+    times = np.arange(frames) * dt
+    steady = rest[None] + np.array([1.0, 0, 0]) * 0.4 * times[:, None, None]
+    lunge = rest[None] + np.array([1.0, 0, 0]) * 0.2 * np.clip(times / 0.4, 0, 1)[:, None, None]
+    stretch = np.repeat(rest[None], frames, axis=0)
+    front = find_feet(layout)[-1]
+    stretch[:, front, 0] += 0.1 * times[:, None] / times[-1]
+    moving, lunging = (measure_gait(p, layout, dt) for p in (steady, lunge))
+    stretching = measure_gait(stretch, layout, dt)
+    assert moving["late_speed"] == pytest.approx(0.4) and moving["centroid_travel"] == pytest.approx(0.4)
+    assert moving["stance_change"] == pytest.approx(0.0, abs=1e-12)
+    assert lunging["late_speed"] == pytest.approx(0.0, abs=1e-12)
+    assert lunging["centroid_travel"] == pytest.approx(0.2)
+    assert stretching["stance_change"] == pytest.approx(0.1)
+
+
 def test_a_still_robot_has_no_slip_to_report(tmp_path):
     robot = litl.robots.get("biped", dx=1 / 32)
     still = np.repeat(np.asarray(robot.layout.positions)[None], 3, axis=0)
