@@ -99,7 +99,7 @@ print(json.dumps({"devices": len(placed.sharding.device_set),
 
 def test_seeds_spread_over_two_devices_give_the_same_run(tmp_path, x64):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "JAX_ENABLE_X64": "1",
-           "XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
+           "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2"}
     out = subprocess.run([sys.executable, "-c", SHARDED, str(tmp_path / "two")], cwd=ROOT, env=env,
                          capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
