@@ -135,8 +135,11 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
     first, metrics = optimize(start)
-    assert not bool(metrics["stepped_back"]) and float(first.anchor.task_loss) == float(
-        metrics["task_loss"])
+    # The anchor keeps the iteration's loss: XLA may compute one value twice for two outputs, so
+    # equal to float32 rounding (of centroids ~0.3 apart by ~4e-5 here), not bit for bit.
+    assert not bool(metrics["stepped_back"])
+    np.testing.assert_allclose(float(first.anchor.task_loss), float(metrics["task_loss"]),
+                               rtol=1e-5, atol=1e-7)
     full_step = jax.tree.map(lambda a, b: a - b, first.controller, start.controller)
     # Pretend the anchor had done far better: every result now counts as a fall.
     state = first.replace(anchor=first.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
