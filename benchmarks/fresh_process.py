@@ -12,8 +12,9 @@ import sys
 def measure_in_fresh_process(script: str, arguments: list[str], case: str) -> dict:
     """`python script *arguments` -> the dict its last stdout line holds; exits naming `case`
     with the end of its stderr if it fails."""
-    done = subprocess.run([sys.executable, script, *arguments], capture_output=True, text=True,
-                          env=os.environ.copy())
+    done = subprocess.run(
+        [sys.executable, script, *arguments], capture_output=True, text=True, env=os.environ.copy()
+    )
     if done.returncode:
         raise SystemExit(f"{case} failed:\n{done.stderr[-4000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])

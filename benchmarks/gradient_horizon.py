@@ -36,9 +36,10 @@ def trained_state(observer: str, episodes: int, iterations: int, dx: float):
     from litl.loop.run import run
 
     robot = litl.robots.get("biped", dx=dx)
-    config = Config().replace(observer={"kind": observer},
-                              loop={"episodes": episodes, "iterations": iterations,
-                                    "learning": {"max_epochs": 30, "patience": 5}})
+    config = Config().replace(
+        observer={"kind": observer},
+        loop={"episodes": episodes, "iterations": iterations, "learning": {"max_epochs": 30, "patience": 5}},
+    )
     with tempfile.TemporaryDirectory() as run_dir:
         state = seed_slice(run(robot, config, run_dir, progress=False).state, 0)
     return robot, config, state
@@ -56,8 +57,12 @@ def state_of_run(run_dir: pathlib.Path, seed_index: int = 0):
     robot = litl.robots.get(saved["robot"], dx=saved["dx"])
     algorithm = make_algorithm(robot, config)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
-    counters = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0,
-                "loss_before_retrain": np.full(config.seeds, np.nan)}
+    counters = {
+        "episodes_done": 0,
+        "metrics_lines": 0,
+        "learning_lines": 0,
+        "loss_before_retrain": np.full(config.seeds, np.nan),
+    }
     checkpoints = Checkpoints(run_dir / "checkpoints")
     state, _ = checkpoints.restore(template, counters)
     checkpoints.close()
@@ -72,14 +77,21 @@ def measure(robot, config, state, horizons) -> list[dict]:
     rows = []
     for mode in ("full", "stop"):
         for steps in horizons:
-            algorithm = make_algorithm(robot, config.replace(
-                sim={"steps": steps}, controller={"mlp": {"feature_gradient": mode}}))
+            algorithm = make_algorithm(
+                robot, config.replace(sim={"steps": steps}, controller={"mlp": {"feature_gradient": mode}})
+            )
             _, metrics = jax.jit(algorithm.optimize)(state)
-            rows.append({"observer": observer, "feature_gradient": mode, "steps": steps,
-                         "controller_grad_norm": float(metrics["controller_grad_norm"]),
-                         "design_grad_norm": float(metrics["design_grad_norm"]),
-                         "task_loss": float(metrics["task_loss"]),
-                         "skipped": int(metrics["skipped"])})
+            rows.append(
+                {
+                    "observer": observer,
+                    "feature_gradient": mode,
+                    "steps": steps,
+                    "controller_grad_norm": float(metrics["controller_grad_norm"]),
+                    "design_grad_norm": float(metrics["design_grad_norm"]),
+                    "task_loss": float(metrics["task_loss"]),
+                    "skipped": int(metrics["skipped"]),
+                }
+            )
     return rows
 
 
@@ -90,33 +102,46 @@ def main():
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--dx", type=float, default=1 / 64)
-    parser.add_argument("--runs", nargs="+", type=pathlib.Path, default=None,
-                        help="measure from the latest checkpoints of these run directories "
-                             "(seed 0 of each) instead of training")
+    parser.add_argument(
+        "--runs",
+        nargs="+",
+        type=pathlib.Path,
+        default=None,
+        help="measure from the latest checkpoints of these run directories "
+        "(seed 0 of each) instead of training",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.runs:
         trained = [state_of_run(run_dir) for run_dir in args.runs]
         source = "latest checkpoints of " + ", ".join(map(str, args.runs))
     else:
-        trained = [trained_state(observer, args.episodes, args.iterations, args.dx)
-                   for observer in args.observers]
+        trained = [
+            trained_state(observer, args.episodes, args.iterations, args.dx) for observer in args.observers
+        ]
         source = f"biped dx = {args.dx:g}; trained {args.episodes} x {args.iterations} iterations"
     labels = [str(r) for r in args.runs] if args.runs else args.observers
-    rows = [{"state": label, **row} for label, (robot, config, state) in zip(labels, trained)
-            for row in measure(robot, config, state, args.horizons)]
+    rows = [
+        {"state": label, **row}
+        for label, (robot, config, state) in zip(labels, trained)
+        for row in measure(robot, config, state, args.horizons)
+    ]
     if args.json:
         print(json.dumps(rows, indent=1))
         return
     print(f"device: {jax.devices()[0].device_kind}; {source}")
     width = max(len(label) for label in labels)
-    print(f"{'state':{width}s} {'observer':8s} {'gradient':8s} "
-          + " ".join(f"{'T=' + str(t):>10s}" for t in args.horizons))
+    print(
+        f"{'state':{width}s} {'observer':8s} {'gradient':8s} "
+        + " ".join(f"{'T=' + str(t):>10s}" for t in args.horizons)
+    )
     for label in labels:
         for mode in ("full", "stop"):
             picked = [r for r in rows if r["state"] == label and r["feature_gradient"] == mode]
-            print(f"{label:{width}s} {picked[0]['observer']:8s} {mode:8s} "
-                  + " ".join(f"{r['controller_grad_norm']:10.3g}" for r in picked))
+            print(
+                f"{label:{width}s} {picked[0]['observer']:8s} {mode:8s} "
+                + " ".join(f"{r['controller_grad_norm']:10.3g}" for r in picked)
+            )
     print("(norm of d task loss / d controller parameters, before clipping)")
 
 

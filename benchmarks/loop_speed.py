@@ -46,12 +46,19 @@ def _timed(function, *args):
     start = time.perf_counter()
     out = function(*args)
     import jax
+
     jax.block_until_ready(out)
     return out, time.perf_counter() - start
 
 
-def measure(seeds: int, repeats: int, dx: float, steps: int | None, method: str = "litl",
-            at_once: tuple[int, ...] = (1,)) -> dict:
+def measure(
+    seeds: int,
+    repeats: int,
+    dx: float,
+    steps: int | None,
+    method: str = "litl",
+    at_once: tuple[int, ...] = (1,),
+) -> dict:
     import functools
 
     import jax
@@ -82,8 +89,7 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None, method: str 
     learn_s, learn_compile = {}, {}
     for group in sorted({min(a, seeds) for a in at_once}):
         start = time.perf_counter()
-        learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=group)).lower(
-            state).compile()
+        learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=group)).lower(state).compile()
         learn_compile[group] = round(time.perf_counter() - start, 1)
         phases = []
         for _ in range(repeats):
@@ -93,7 +99,7 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None, method: str 
     steps_taken = stats.epochs_used * stats.steps_per_epoch
     episode_opt_s = config.loop.iterations * optimize_s
     device = jax.devices()[0]
-    peak_device = (device.memory_stats() or {}).get("peak_bytes_in_use")   # None on CPU
+    peak_device = (device.memory_stats() or {}).get("peak_bytes_in_use")  # None on CPU
     return {
         "seeds": seeds,
         "dx": dx,
@@ -114,30 +120,47 @@ def measure(seeds: int, repeats: int, dx: float, steps: int | None, method: str 
         "recon_explained": [round(float(v), 3) for v in stats.recon_explained],
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
         "peak_device_mb": None if peak_device is None else round(peak_device / 2**20),
-        "device": {"platform": device.platform, "device_kind": device.device_kind,
-                   "device_count": jax.device_count()},
+        "device": {
+            "platform": device.platform,
+            "device_kind": device.device_kind,
+            "device_count": jax.device_count(),
+        },
     }
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 10])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--dx", type=float, nargs="+", default=list(RESOLUTIONS.values()),
-                        help="biped resolutions (default: demo 1/64 and paper 1/128)")
+    parser.add_argument(
+        "--dx",
+        type=float,
+        nargs="+",
+        default=list(RESOLUTIONS.values()),
+        help="biped resolutions (default: demo 1/64 and paper 1/128)",
+    )
     parser.add_argument("--steps", type=int, default=None, help="rollout steps (default: 1 s)")
     parser.add_argument("--method", choices=("litl", "paper"), default="litl")
-    parser.add_argument("--at-once", type=int, nargs="+", default=[1, 10],
-                        help="learning phases run this many seeds together (default: 1 and 10)")
+    parser.add_argument(
+        "--at-once",
+        type=int,
+        nargs="+",
+        default=[1, 10],
+        help="learning phases run this many seeds together (default: 1 and 10)",
+    )
     parser.add_argument("--one", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.repeats < 1 or min(args.seeds) < 1 or min(args.dx) <= 0 or min(args.at_once) < 1:
         parser.error("--repeats, --seeds, --dx and --at-once must be positive")
     if args.one:
-        print(json.dumps(measure(args.one, args.repeats, args.dx[0], args.steps, args.method,
-                                 tuple(args.at_once))))
+        print(
+            json.dumps(
+                measure(args.one, args.repeats, args.dx[0], args.steps, args.method, tuple(args.at_once))
+            )
+        )
         return
     results = []
     for dx in args.dx:
@@ -145,23 +168,29 @@ def main(argv=None):
             arguments = ["--one", str(seeds), "--repeats", str(args.repeats), "--dx", str(dx)]
             arguments += ["--steps", str(args.steps)] if args.steps else []
             arguments += ["--method", args.method, "--at-once", *map(str, args.at_once)]
-            results.append(measure_in_fresh_process(__file__, arguments,
-                                                    f"dx {dx}, {seeds} seeds"))
+            results.append(measure_in_fresh_process(__file__, arguments, f"dx {dx}, {seeds} seeds"))
             if not args.json:
                 r = results[-1]
                 if len(results) == 1:
                     device = r["device"]
-                    print(f"device: {device['device_kind']} ({device['platform']}, "
-                          f"{device['device_count']} device(s); the seeds run on the first)")
-                    print(f"{'dx':>7s} {'seeds':>5s} {'optimize_s':>10s} {'episode_s':>9s} "
-                          f"{'learn_s by seeds at once':>26s} {'steps max/mean':>14s} "
-                          f"{'share':>5s} {'optimize compile_s':>18s} {'peak_MB':>8s}")
+                    print(
+                        f"device: {device['device_kind']} ({device['platform']}, "
+                        f"{device['device_count']} device(s); the seeds run on the first)"
+                    )
+                    print(
+                        f"{'dx':>7s} {'seeds':>5s} {'optimize_s':>10s} {'episode_s':>9s} "
+                        f"{'learn_s by seeds at once':>26s} {'steps max/mean':>14s} "
+                        f"{'share':>5s} {'optimize compile_s':>18s} {'peak_MB':>8s}"
+                    )
                 learn = " ".join(f"{a}:{t:.1f}" for a, t in r["learn_s"].items())
-                print(f"1/{round(1 / r['dx']):<5d} {r['seeds']:5d} {r['optimize_s']:10.2f} "
-                      f"{r['episode_opt_s']:9.2f} {learn:>26s} "
-                      f"{r['learn_steps']:>6d}/{r['learn_steps_mean']:<7.0f} "
-                      f"{r['learn_share']:5.2f} {r['optimize_compile_s']:18.1f} "
-                      f"{r['peak_rss_mb']:8d}", flush=True)
+                print(
+                    f"1/{round(1 / r['dx']):<5d} {r['seeds']:5d} {r['optimize_s']:10.2f} "
+                    f"{r['episode_opt_s']:9.2f} {learn:>26s} "
+                    f"{r['learn_steps']:>6d}/{r['learn_steps_mean']:<7.0f} "
+                    f"{r['learn_share']:5.2f} {r['optimize_compile_s']:18.1f} "
+                    f"{r['peak_rss_mb']:8d}",
+                    flush=True,
+                )
     if args.json:
         print(json.dumps(results))
 

@@ -29,13 +29,22 @@ import statistics
 import time
 
 
-def run_observer(observer: str, out: pathlib.Path, seeds: int, episodes: int, iterations: int,
-                 overrides: list[str]) -> float:
+def run_observer(
+    observer: str, out: pathlib.Path, seeds: int, episodes: int, iterations: int, overrides: list[str]
+) -> float:
     from litl.app import compose, run_experiment
 
-    settings = compose([f"observer={observer}", f"seeds={seeds}", f"loop.episodes={episodes}",
-                        f"loop.iterations={iterations}", "output.progress=false",
-                        "output.animation=false", *overrides])
+    settings = compose(
+        [
+            f"observer={observer}",
+            f"seeds={seeds}",
+            f"loop.episodes={episodes}",
+            f"loop.iterations={iterations}",
+            "output.progress=false",
+            "output.animation=false",
+            *overrides,
+        ]
+    )
     start = time.perf_counter()
     run_experiment(settings, out / observer)
     return time.perf_counter() - start
@@ -54,14 +63,18 @@ def summarize(run_dir: pathlib.Path) -> list[dict]:
         distance = [r["task/distance"] for r in healthy]
         drops = sum(b < a - 0.01 for a, b in zip(distance, distance[1:]))
         grads = [r["controller_grad_norm"] for r in healthy if r["controller_grad_norm"] is not None]
-        rows.append({
-            "seed": seed, "iterations": len(seed_records), "skipped": dict(skipped),
-            "best": max(distance) if distance else None,
-            "final": statistics.fmean(distance[-10:]) if distance else None,
-            "worse_fraction": drops / max(len(distance) - 1, 1),
-            "grad_median": statistics.median(grads) if grads else None,
-            "wall_s": seed_records[-1]["wall_s"],
-        })
+        rows.append(
+            {
+                "seed": seed,
+                "iterations": len(seed_records),
+                "skipped": dict(skipped),
+                "best": max(distance) if distance else None,
+                "final": statistics.fmean(distance[-10:]) if distance else None,
+                "worse_fraction": drops / max(len(distance) - 1, 1),
+                "grad_median": statistics.median(grads) if grads else None,
+                "wall_s": seed_records[-1]["wall_s"],
+            }
+        )
     return rows
 
 
@@ -73,8 +86,12 @@ def main():
     parser.add_argument("--iterations", type=int, default=20)
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("outputs/stability"))
     parser.add_argument("--override", nargs="*", default=[], help="more `python -m litl` overrides")
-    parser.add_argument("--summarize", type=pathlib.Path, default=None,
-                        help="only summarize the runs already in this directory")
+    parser.add_argument(
+        "--summarize",
+        type=pathlib.Path,
+        default=None,
+        help="only summarize the runs already in this directory",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     out = args.summarize or args.out
@@ -87,16 +104,20 @@ def main():
     if args.json:
         print(json.dumps(results, indent=1))
         return
-    print(f"{'observer':8s} {'seed':>4s} {'its':>4s} {'skipped':>20s} {'best':>7s} {'final':>7s} "
-          f"{'worse>0.01':>10s} {'grad_med':>9s} {'wall_s':>7s}")
+    print(
+        f"{'observer':8s} {'seed':>4s} {'its':>4s} {'skipped':>20s} {'best':>7s} {'final':>7s} "
+        f"{'worse>0.01':>10s} {'grad_med':>9s} {'wall_s':>7s}"
+    )
     for observer, rows in results.items():
         for r in rows:
             skipped = ",".join(f"{k}:{v}" for k, v in r["skipped"].items()) or "0"
             fmt = lambda v: f"{v:7.3f}" if v is not None else "    n/a"
             grad = f"{r['grad_median']:9.3g}" if r["grad_median"] is not None else "      n/a"
-            print(f"{observer:8s} {r['seed']:4d} {r['iterations']:4d} {skipped:>20s} "
-                  f"{fmt(r['best'])} {fmt(r['final'])} {r['worse_fraction']:10.2f} {grad} "
-                  f"{r['wall_s']:7.0f}")
+            print(
+                f"{observer:8s} {r['seed']:4d} {r['iterations']:4d} {skipped:>20s} "
+                f"{fmt(r['best'])} {fmt(r['final'])} {r['worse_fraction']:10.2f} {grad} "
+                f"{r['wall_s']:7.0f}"
+            )
 
 
 if __name__ == "__main__":

@@ -66,7 +66,6 @@ import sys
 import time
 
 import numpy as np
-
 from fresh_process import measure_in_fresh_process
 
 
@@ -87,8 +86,9 @@ def _current_rss_mb() -> float:
         return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
-def stored_states_bytes(particles: int, steps: int, checkpoint_every: int | None,
-                        dim: int = 3, itemsize: int = 4) -> int:
+def stored_states_bytes(
+    particles: int, steps: int, checkpoint_every: int | None, dim: int = 3, itemsize: int = 4
+) -> int:
     """Bytes of the particle states reverse mode keeps (each step's input x, v, C, F).
 
     Args:
@@ -101,10 +101,10 @@ def stored_states_bytes(particles: int, steps: int, checkpoint_every: int | None
     return kept * state
 
 
-def measure(particles: int, steps: int, checkpoint_every: int | None, n_grid: int,
-            compile_only: bool) -> dict:
+def measure(
+    particles: int, steps: int, checkpoint_every: int | None, n_grid: int, compile_only: bool
+) -> dict:
     import jax
-
     from sim_speed import block_problem, device_info
 
     _, gradient, youngs, n = block_problem(steps, particles, n_grid, checkpoint_every)
@@ -116,8 +116,7 @@ def measure(particles: int, steps: int, checkpoint_every: int | None, n_grid: in
         "grid": [n_grid] * 3,
         "compile_s": round(compile_s, 1),
         "xla_temp_mb": None if temp is None else round(temp / 2**20, 1),
-        "stored_states_mb": round(
-            stored_states_bytes(n, steps, checkpoint_every) / 2**20, 1),
+        "stored_states_mb": round(stored_states_bytes(n, steps, checkpoint_every) / 2**20, 1),
         "rss_before_run_mb": round(_current_rss_mb(), 1),
         "device": device_info(),
     }
@@ -125,25 +124,47 @@ def measure(particles: int, steps: int, checkpoint_every: int | None, n_grid: in
         start = time.perf_counter()
         (_, health), _ = jax.block_until_ready(compiled(youngs))
         result["run_s"] = round(time.perf_counter() - start, 2)
-        result["healthy"] = bool(np.asarray(health.first_nonfinite_step) < 0
-                                 and np.asarray(health.first_escape_step) < 0)
-    stats = jax.devices()[0].memory_stats() or {}           # None on CPU
+        result["healthy"] = bool(
+            np.asarray(health.first_nonfinite_step) < 0 and np.asarray(health.first_escape_step) < 0
+        )
+    stats = jax.devices()[0].memory_stats() or {}  # None on CPU
     peak = stats.get("peak_bytes_in_use")
     result["peak_device_mb"] = None if peak is None else round(peak / 2**20, 1)
     result["peak_rss_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
     return result
 
+
 # --curves: the default sweep (horizons at --particles, particle counts at --steps) and --quick's.
 HORIZONS = (256, 512, 1024, 2048, 4096)
 PARTICLE_COUNTS = (10_000, 30_000, 100_000)
-QUICK = {"horizons": (32, 64), "particle_counts": (1000, 2000), "particles": 1000, "steps": 32,
-         "grid": 32}
-CSV_FIELDS = ("sweeps", "particles", "steps", "segments", "checkpoint_every", "grid",
-              "peak_mb", "peak_rss_mb", "rss_before_run_mb", "peak_device_mb", "xla_temp_mb",
-              "stored_states_mb", "forward_s", "forward_runs", "forward_backward_s",
-              "forward_backward_runs", "forward_particle_steps_per_s",
-              "forward_backward_particle_steps_per_s", "backward_forward_ratio", "compile_s",
-              "forward_compile_s", "healthy", "skipped", "platform", "device_kind")
+QUICK = {"horizons": (32, 64), "particle_counts": (1000, 2000), "particles": 1000, "steps": 32, "grid": 32}
+CSV_FIELDS = (
+    "sweeps",
+    "particles",
+    "steps",
+    "segments",
+    "checkpoint_every",
+    "grid",
+    "peak_mb",
+    "peak_rss_mb",
+    "rss_before_run_mb",
+    "peak_device_mb",
+    "xla_temp_mb",
+    "stored_states_mb",
+    "forward_s",
+    "forward_runs",
+    "forward_backward_s",
+    "forward_backward_runs",
+    "forward_particle_steps_per_s",
+    "forward_backward_particle_steps_per_s",
+    "backward_forward_ratio",
+    "compile_s",
+    "forward_compile_s",
+    "healthy",
+    "skipped",
+    "platform",
+    "device_kind",
+)
 
 
 def _timed(function, argument, repeats: int, budget_s: float):
@@ -161,12 +182,18 @@ def _timed(function, argument, repeats: int, budget_s: float):
     return statistics.median(times), len(times), out
 
 
-def measure_curve_point(particles: int, steps: int, checkpoint_every: int | None, n_grid: int,
-                        repeats: int, repeat_budget_s: float, max_memory_mb: float) -> dict:
+def measure_curve_point(
+    particles: int,
+    steps: int,
+    checkpoint_every: int | None,
+    n_grid: int,
+    repeats: int,
+    repeat_budget_s: float,
+    max_memory_mb: float,
+) -> dict:
     """One point of --curves: compile the forward rollout and its value_and_grad, then time the
     forward (jitted rollout and loss) and forward+backward runs, the peak memory after both."""
     import jax
-
     from sim_speed import block_problem, device_info
 
     forward, gradient, youngs, n = block_problem(steps, particles, n_grid, checkpoint_every)
@@ -182,34 +209,38 @@ def measure_curve_point(particles: int, steps: int, checkpoint_every: int | None
         "compile_s": round(compile_s, 2),
         "forward_compile_s": round(forward_compile_s, 2),
         "xla_temp_mb": None if temp is None else round(temp / 2**20, 1),
-        "stored_states_mb": round(
-            stored_states_bytes(n, steps, checkpoint_every) / 2**20, 1),
+        "stored_states_mb": round(stored_states_bytes(n, steps, checkpoint_every) / 2**20, 1),
         "rss_before_run_mb": round(_current_rss_mb(), 1),
         "device": device_info(),
     }
     if temp is not None and temp / 2**20 > max_memory_mb:
-        result["skipped"] = (f"XLA plans {temp / 2**30:.1f} GiB of temporaries, over "
-                             f"--max-memory-gb {max_memory_mb / 1024:g}")
+        result["skipped"] = (
+            f"XLA plans {temp / 2**30:.1f} GiB of temporaries, over --max-memory-gb {max_memory_mb / 1024:g}"
+        )
     else:
-        forward_s, forward_runs, (_, health) = _timed(forward_compiled, youngs, repeats,
-                                                      repeat_budget_s)
-        backward_s, backward_runs, ((_, health_b), _) = _timed(gradient_compiled, youngs,
-                                                               repeats, repeat_budget_s)
+        forward_s, forward_runs, (_, health) = _timed(forward_compiled, youngs, repeats, repeat_budget_s)
+        backward_s, backward_runs, ((_, health_b), _) = _timed(
+            gradient_compiled, youngs, repeats, repeat_budget_s
+        )
         particle_steps = n * steps
-        result.update({
-            "forward_s": round(forward_s, 4),
-            "forward_runs": forward_runs,
-            "forward_backward_s": round(backward_s, 4),
-            "forward_backward_runs": backward_runs,
-            "forward_particle_steps_per_s": float(f"{particle_steps / forward_s:.4g}"),
-            "forward_backward_particle_steps_per_s":
-                float(f"{particle_steps / backward_s:.4g}"),
-            "backward_forward_ratio": round(backward_s / forward_s, 2),
-            "healthy": bool(all(np.asarray(h.first_nonfinite_step) < 0
-                                and np.asarray(h.first_escape_step) < 0
-                                for h in (health, health_b))),
-        })
-    stats = jax.devices()[0].memory_stats() or {}           # None on CPU
+        result.update(
+            {
+                "forward_s": round(forward_s, 4),
+                "forward_runs": forward_runs,
+                "forward_backward_s": round(backward_s, 4),
+                "forward_backward_runs": backward_runs,
+                "forward_particle_steps_per_s": float(f"{particle_steps / forward_s:.4g}"),
+                "forward_backward_particle_steps_per_s": float(f"{particle_steps / backward_s:.4g}"),
+                "backward_forward_ratio": round(backward_s / forward_s, 2),
+                "healthy": bool(
+                    all(
+                        np.asarray(h.first_nonfinite_step) < 0 and np.asarray(h.first_escape_step) < 0
+                        for h in (health, health_b)
+                    )
+                ),
+            }
+        )
+    stats = jax.devices()[0].memory_stats() or {}  # None on CPU
     peak = stats.get("peak_bytes_in_use")
     result["peak_device_mb"] = None if peak is None else round(peak / 2**20, 1)
     result["peak_rss_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
@@ -234,9 +265,14 @@ def _write_curves(out: str, header: dict, rows: list[dict]) -> None:
         writer = csv.DictWriter(file, CSV_FIELDS, extrasaction="ignore")
         writer.writeheader()
         for row in rows:
-            writer.writerow({**row, "sweeps": "+".join(row["sweeps"]),
-                             "platform": row["device"]["platform"],
-                             "device_kind": row["device"]["device_kind"]})
+            writer.writerow(
+                {
+                    **row,
+                    "sweeps": "+".join(row["sweeps"]),
+                    "platform": row["device"]["platform"],
+                    "device_kind": row["device"]["device_kind"],
+                }
+            )
 
 
 def _plot_curves(path: str, header: dict, rows: list[dict]) -> None:
@@ -248,42 +284,78 @@ def _plot_curves(path: str, header: dict, rows: list[dict]) -> None:
 
     device = header["device"]
     on_device = any(r.get("peak_device_mb") is not None for r in rows)
-    memory_label = ("MB: peak device memory (solid), XLA's plan (dotted)" if on_device else
-                    "MB: peak resident memory (solid), XLA's plan (dotted)")
+    memory_label = (
+        "MB: peak device memory (solid), XLA's plan (dotted)"
+        if on_device
+        else "MB: peak resident memory (solid), XLA's plan (dotted)"
+    )
     figure, axes = plt.subplots(2, 2, figsize=(11, 8.5))
     styles = {"none": ("C0", "no segments"), "sqrt": ("C3", "segments, K ≈ √steps")}
     for column, (sweep, x_key, fixed_key, x_label) in enumerate(
-            [("steps", "steps", "particles", "steps (horizon)"),
-             ("particles", "particles", "steps", "particles")]):
+        [("steps", "steps", "particles", "steps (horizon)"), ("particles", "particles", "steps", "particles")]
+    ):
         memory_axis, rate_axis = axes[0, column], axes[1, column]
         chosen = [r for r in rows if sweep in r["sweeps"]]
         fixed = sorted({r[fixed_key] for r in chosen})
         for segments, (colour, label) in styles.items():
-            line = sorted((r for r in chosen if r["segments"] == segments),
-                          key=lambda r: r[x_key])
+            line = sorted((r for r in chosen if r["segments"] == segments), key=lambda r: r[x_key])
             measured = [r for r in line if r.get("peak_mb") is not None]
-            memory_axis.plot([r[x_key] for r in measured], [r["peak_mb"] for r in measured],
-                             "o-", color=colour, label=f"peak, {label}")
+            memory_axis.plot(
+                [r[x_key] for r in measured],
+                [r["peak_mb"] for r in measured],
+                "o-",
+                color=colour,
+                label=f"peak, {label}",
+            )
             planned = [r for r in line if r.get("xla_temp_mb") is not None]
-            memory_axis.plot([r[x_key] for r in planned], [r["xla_temp_mb"] for r in planned],
-                             "^:", color=colour, label=f"XLA's planned temporaries, {label}")
+            memory_axis.plot(
+                [r[x_key] for r in planned],
+                [r["xla_temp_mb"] for r in planned],
+                "^:",
+                color=colour,
+                label=f"XLA's planned temporaries, {label}",
+            )
             timed = [r for r in line if r.get("forward_s") is not None]
             xs = [r[x_key] for r in timed]
-            rate_axis.plot(xs, [r["forward_particle_steps_per_s"] / 1e6 for r in timed], "s--",
-                           color=colour, label=f"forward, {label}")
-            rate_axis.plot(xs, [r["forward_backward_particle_steps_per_s"] / 1e6
-                                for r in timed], "o-", color=colour,
-                           label=f"forward+backward, {label}")
+            rate_axis.plot(
+                xs,
+                [r["forward_particle_steps_per_s"] / 1e6 for r in timed],
+                "s--",
+                color=colour,
+                label=f"forward, {label}",
+            )
+            rate_axis.plot(
+                xs,
+                [r["forward_backward_particle_steps_per_s"] / 1e6 for r in timed],
+                "o-",
+                color=colour,
+                label=f"forward+backward, {label}",
+            )
             for r in line:
                 if r.get("skipped"):
-                    memory_axis.annotate(f"{label}: skipped", (r[x_key], 0.97),
-                                         xycoords=("data", "axes fraction"), color=colour,
-                                         fontsize=8, ha="right", va="top")
+                    memory_axis.annotate(
+                        f"{label}: skipped",
+                        (r[x_key], 0.97),
+                        xycoords=("data", "axes fraction"),
+                        color=colour,
+                        fontsize=8,
+                        ha="right",
+                        va="top",
+                    )
         where = f"{fixed_key} = {', '.join(map(str, fixed))}"
-        memory_axis.set(xscale="log", yscale="log", xlabel=x_label, ylabel=memory_label,
-                        title=f"peak memory vs {sweep} ({where})")
-        rate_axis.set(xscale="log", xlabel=x_label, ylabel="million particle-steps / s",
-                      title=f"throughput vs {sweep} ({where})")
+        memory_axis.set(
+            xscale="log",
+            yscale="log",
+            xlabel=x_label,
+            ylabel=memory_label,
+            title=f"peak memory vs {sweep} ({where})",
+        )
+        rate_axis.set(
+            xscale="log",
+            xlabel=x_label,
+            ylabel="million particle-steps / s",
+            title=f"throughput vs {sweep} ({where})",
+        )
         rate_axis.set_ylim(bottom=0)
         xs = sorted({r[x_key] for r in chosen})
         for axis in (memory_axis, rate_axis):
@@ -291,10 +363,11 @@ def _plot_curves(path: str, header: dict, rows: list[dict]) -> None:
             axis.set_xticks(xs, [str(x) for x in xs])
             axis.grid(alpha=0.3)
             axis.legend(fontsize=8)
-        memory_axis.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
-            lambda value, _: f"{value:g}"))
-    figure.suptitle(f"memory_scale.py --curves: {device['device_kind']} ({device['platform']}), "
-                    f"{header['date']}; elastic block, grid {header['grid']}³, float32")
+        memory_axis.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
+    figure.suptitle(
+        f"memory_scale.py --curves: {device['device_kind']} ({device['platform']}), "
+        f"{header['date']}; elastic block, grid {header['grid']}³, float32"
+    )
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)
@@ -310,22 +383,34 @@ def curves(args) -> None:
     particles = args.particles or quick.get("particles", 10_000)
     steps = args.steps or quick.get("steps", 256)
     grid = args.grid or quick.get("grid", 64)
-    out = args.out or os.path.join("outputs", "memory_scale_quick" if args.quick
-                                   else "memory_scale")
+    out = args.out or os.path.join("outputs", "memory_scale_quick" if args.quick else "memory_scale")
     os.makedirs(out, exist_ok=True)
     device = measure_in_fresh_process(__file__, ["--device-info"], "device info")
-    header = {"command": " ".join(["python", "benchmarks/memory_scale.py",
-                                   *(sys.argv[1:] if args.argv is None else args.argv)]),
-              "date": datetime.date.today().isoformat(), "device": device, "grid": grid,
-              "repeats": args.repeats, "repeat_budget_s": args.repeat_budget,
-              "max_memory_gb": args.max_memory_gb, "host_cpus": os.cpu_count()}
-    print(f"device: {device['device_kind']} ({device['platform']}, {device['device_count']} "
-          f"device{'s' if device['device_count'] > 1 else ''}; the first one is used; "
-          f"{os.cpu_count()} CPU cores); grid {grid}^3; medians of up to {args.repeats} runs "
-          f"(fewer once they take {args.repeat_budget:g} s)", flush=True)
-    print(f"{'particles':>9s} {'steps':>5s} {'K':>4s} {'peak_MB':>8s} {'xla_MB':>8s} "
-          f"{'fwd_s':>8s} {'f+b_s':>8s} {'runs':>5s} {'fwd_Mps/s':>9s} {'f+b_Mps/s':>9s} "
-          f"{'f+b/fwd':>7s} {'compile_s':>9s}", flush=True)
+    header = {
+        "command": " ".join(
+            ["python", "benchmarks/memory_scale.py", *(sys.argv[1:] if args.argv is None else args.argv)]
+        ),
+        "date": datetime.date.today().isoformat(),
+        "device": device,
+        "grid": grid,
+        "repeats": args.repeats,
+        "repeat_budget_s": args.repeat_budget,
+        "max_memory_gb": args.max_memory_gb,
+        "host_cpus": os.cpu_count(),
+    }
+    print(
+        f"device: {device['device_kind']} ({device['platform']}, {device['device_count']} "
+        f"device{'s' if device['device_count'] > 1 else ''}; the first one is used; "
+        f"{os.cpu_count()} CPU cores); grid {grid}^3; medians of up to {args.repeats} runs "
+        f"(fewer once they take {args.repeat_budget:g} s)",
+        flush=True,
+    )
+    print(
+        f"{'particles':>9s} {'steps':>5s} {'K':>4s} {'peak_MB':>8s} {'xla_MB':>8s} "
+        f"{'fwd_s':>8s} {'f+b_s':>8s} {'runs':>5s} {'fwd_Mps/s':>9s} {'f+b_Mps/s':>9s} "
+        f"{'f+b/fwd':>7s} {'compile_s':>9s}",
+        flush=True,
+    )
     show = lambda value, spec: "-" if value is None else format(value, spec)
     rows = []
     started = time.perf_counter()
@@ -333,42 +418,68 @@ def curves(args) -> None:
         for every in (None, square_root_segment(horizon, 1)):
             states_mb = stored_states_bytes(n, horizon, every) / 2**20
             if states_mb > 1024 * args.max_memory_gb:
-                row = {"particles": n, "steps": horizon, "checkpoint_every": every,
-                       "grid": grid, "stored_states_mb": round(states_mb, 1), "device": device,
-                       "skipped": f"the backward pass keeps ~{states_mb / 1024:.1f} GiB of "
-                                  f"states, over --max-memory-gb {args.max_memory_gb:g}"}
+                row = {
+                    "particles": n,
+                    "steps": horizon,
+                    "checkpoint_every": every,
+                    "grid": grid,
+                    "stored_states_mb": round(states_mb, 1),
+                    "device": device,
+                    "skipped": f"the backward pass keeps ~{states_mb / 1024:.1f} GiB of "
+                    f"states, over --max-memory-gb {args.max_memory_gb:g}",
+                }
             else:
-                arguments = ["--one-curve", "--particles", str(n), "--steps", str(horizon),
-                             "--grid", str(grid), "--checkpoint-every", str(every).lower(),
-                             "--repeats", str(args.repeats),
-                             "--repeat-budget", str(args.repeat_budget),
-                             "--max-memory-gb", str(args.max_memory_gb)]
+                arguments = [
+                    "--one-curve",
+                    "--particles",
+                    str(n),
+                    "--steps",
+                    str(horizon),
+                    "--grid",
+                    str(grid),
+                    "--checkpoint-every",
+                    str(every).lower(),
+                    "--repeats",
+                    str(args.repeats),
+                    "--repeat-budget",
+                    str(args.repeat_budget),
+                    "--max-memory-gb",
+                    str(args.max_memory_gb),
+                ]
                 case = f"{n} particles, {horizon} steps, checkpoint_every={every}"
                 try:
                     row = measure_in_fresh_process(__file__, arguments, case)
-                except SystemExit as failure:   # out of memory, say: record it, go on
+                except SystemExit as failure:  # out of memory, say: record it, go on
                     print(failure, file=sys.stderr)
-                    row = {"particles": n, "steps": horizon, "checkpoint_every": every,
-                           "grid": grid, "device": device,
-                           "skipped": f"failed: {str(failure).splitlines()[-1][:200]}"}
+                    row = {
+                        "particles": n,
+                        "steps": horizon,
+                        "checkpoint_every": every,
+                        "grid": grid,
+                        "device": device,
+                        "skipped": f"failed: {str(failure).splitlines()[-1][:200]}",
+                    }
             row["sweeps"] = sweeps
             row["segments"] = "none" if every is None else "sqrt"
             if row.get("forward_s") is not None:
-                row["peak_mb"] = (row["peak_device_mb"] if row["peak_device_mb"] is not None
-                                  else row["peak_rss_mb"])
+                row["peak_mb"] = (
+                    row["peak_device_mb"] if row["peak_device_mb"] is not None else row["peak_rss_mb"]
+                )
             rows.append(row)
             _write_curves(out, header, rows)
-            runs = (f"{row['forward_runs']}/{row['forward_backward_runs']}"
-                    if "forward_runs" in row else "-")
+            runs = f"{row['forward_runs']}/{row['forward_backward_runs']}" if "forward_runs" in row else "-"
             rate = lambda key: None if row.get(key) is None else row[key] / 1e6
-            print(f"{row['particles']:9d} {horizon:5d} {str(every or '-'):>4s} "
-                  f"{show(row.get('peak_mb'), '8.0f')} {show(row.get('xla_temp_mb'), '8.0f')} "
-                  f"{show(row.get('forward_s'), '8.2f')} "
-                  f"{show(row.get('forward_backward_s'), '8.2f')} {runs:>5s} "
-                  f"{show(rate('forward_particle_steps_per_s'), '9.3f')} "
-                  f"{show(rate('forward_backward_particle_steps_per_s'), '9.3f')} "
-                  f"{show(row.get('backward_forward_ratio'), '7.2f')} "
-                  f"{show(row.get('compile_s'), '9.1f')}", flush=True)
+            print(
+                f"{row['particles']:9d} {horizon:5d} {str(every or '-'):>4s} "
+                f"{show(row.get('peak_mb'), '8.0f')} {show(row.get('xla_temp_mb'), '8.0f')} "
+                f"{show(row.get('forward_s'), '8.2f')} "
+                f"{show(row.get('forward_backward_s'), '8.2f')} {runs:>5s} "
+                f"{show(rate('forward_particle_steps_per_s'), '9.3f')} "
+                f"{show(rate('forward_backward_particle_steps_per_s'), '9.3f')} "
+                f"{show(row.get('backward_forward_ratio'), '7.2f')} "
+                f"{show(row.get('compile_s'), '9.1f')}",
+                flush=True,
+            )
             if row.get("skipped"):
                 print(f"  skipped: {row['skipped']}", flush=True)
             elif row.get("healthy") is False:
@@ -376,12 +487,16 @@ def curves(args) -> None:
     header["sweep_s"] = round(time.perf_counter() - started, 1)
     _write_curves(out, header, rows)
     _plot_curves(os.path.join(out, "memory_scale.png"), header, rows)
-    print(f"K: segment length (checkpoint_every; - none); peak_MB: the device allocator's peak "
-          f"where it reports one, else the process's peak resident memory; xla_MB: XLA's planned "
-          f"temporaries of value_and_grad; runs: forward/forward+backward runs timed; Mps/s: "
-          f"million particle-steps per second")
-    print(f"sweep took {header['sweep_s'] / 60:.1f} min; wrote {out}/memory_scale.json, "
-          f"memory_scale.csv, memory_scale.png")
+    print(
+        "K: segment length (checkpoint_every; - none); peak_MB: the device allocator's peak "
+        "where it reports one, else the process's peak resident memory; xla_MB: XLA's planned "
+        "temporaries of value_and_grad; runs: forward/forward+backward runs timed; Mps/s: "
+        "million particle-steps per second"
+    )
+    print(
+        f"sweep took {header['sweep_s'] / 60:.1f} min; wrote {out}/memory_scale.json, "
+        f"memory_scale.csv, memory_scale.png"
+    )
 
 
 def _segments(text: str) -> int | None:
@@ -389,70 +504,134 @@ def _segments(text: str) -> int | None:
         return None
     value = int(text)
     if value < 1:
-        raise argparse.ArgumentTypeError(f"--checkpoint-every takes integers >= 1 or none, "
-                                         f"got {text}")
+        raise argparse.ArgumentTypeError(f"--checkpoint-every takes integers >= 1 or none, got {text}")
     return value
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--particles", type=int, default=None,
-                        help="at least this many particles (rounded up to a cube of cells); "
-                             "default 100000, with --curves the horizon sweep's 10000")
-    parser.add_argument("--steps", type=int, default=None,
-                        help="default 4096, with --curves the particle sweep's 256")
-    parser.add_argument("--checkpoint-every", type=_segments, nargs="+", default=[None, 64],
-                        metavar="K", help="segment lengths to compare; none: no segments")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--particles",
+        type=int,
+        default=None,
+        help="at least this many particles (rounded up to a cube of cells); "
+        "default 100000, with --curves the horizon sweep's 10000",
+    )
+    parser.add_argument(
+        "--steps", type=int, default=None, help="default 4096, with --curves the particle sweep's 256"
+    )
+    parser.add_argument(
+        "--checkpoint-every",
+        type=_segments,
+        nargs="+",
+        default=[None, 64],
+        metavar="K",
+        help="segment lengths to compare; none: no segments",
+    )
     parser.add_argument("--grid", type=int, default=None, help="nodes per axis (default 64)")
-    parser.add_argument("--compile-only", action="store_true",
-                        help="report XLA's buffer plan without running the rollout")
+    parser.add_argument(
+        "--compile-only", action="store_true", help="report XLA's buffer plan without running the rollout"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON list")
-    curve = parser.add_argument_group("--curves: peak memory and particle-steps/s by horizon "
-                                      "and by particle count, with and without segments")
+    curve = parser.add_argument_group(
+        "--curves: peak memory and particle-steps/s by horizon "
+        "and by particle count, with and without segments"
+    )
     curve.add_argument("--curves", action="store_true", help="run the sweep (see above)")
-    curve.add_argument("--quick", action="store_true",
-                       help="a tiny sweep to smoke-test --curves (1000 particles, 32/64 steps, "
-                            "grid 32^3)")
-    curve.add_argument("--horizons", type=int, nargs="+", default=None, metavar="T",
-                       help=f"steps of the horizon sweep (default {' '.join(map(str, HORIZONS))})")
-    curve.add_argument("--particle-counts", type=int, nargs="+", default=None, metavar="N",
-                       help=f"particles of the particle sweep (default "
-                            f"{' '.join(map(str, PARTICLE_COUNTS))})")
-    curve.add_argument("--repeats", type=int, default=3,
-                       help="timed runs per measurement after compilation, their median "
-                            "(default 3)")
-    curve.add_argument("--repeat-budget", type=float, default=60.0, metavar="S",
-                       help="stop repeating a measurement once its runs took S seconds "
-                            "(default 60; at least one run)")
-    curve.add_argument("--max-memory-gb", type=float, default=10.0,
-                       help="skip a point whose backward pass would keep more (the states' "
-                            "estimate, then XLA's plan; default 10)")
-    curve.add_argument("--out", default=None,
-                       help="folder for memory_scale.json/.csv/.png (default "
-                            "outputs/memory_scale, or outputs/memory_scale_quick)")
-    curve.add_argument("--replot", metavar="DIR",
-                       help="redraw DIR/memory_scale.png from DIR/memory_scale.json, measuring "
-                            "nothing")
+    curve.add_argument(
+        "--quick",
+        action="store_true",
+        help="a tiny sweep to smoke-test --curves (1000 particles, 32/64 steps, grid 32^3)",
+    )
+    curve.add_argument(
+        "--horizons",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="T",
+        help=f"steps of the horizon sweep (default {' '.join(map(str, HORIZONS))})",
+    )
+    curve.add_argument(
+        "--particle-counts",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="N",
+        help=f"particles of the particle sweep (default {' '.join(map(str, PARTICLE_COUNTS))})",
+    )
+    curve.add_argument(
+        "--repeats",
+        type=int,
+        default=3,
+        help="timed runs per measurement after compilation, their median (default 3)",
+    )
+    curve.add_argument(
+        "--repeat-budget",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="stop repeating a measurement once its runs took S seconds (default 60; at least one run)",
+    )
+    curve.add_argument(
+        "--max-memory-gb",
+        type=float,
+        default=10.0,
+        help="skip a point whose backward pass would keep more (the states' "
+        "estimate, then XLA's plan; default 10)",
+    )
+    curve.add_argument(
+        "--out",
+        default=None,
+        help="folder for memory_scale.json/.csv/.png (default "
+        "outputs/memory_scale, or outputs/memory_scale_quick)",
+    )
+    curve.add_argument(
+        "--replot",
+        metavar="DIR",
+        help="redraw DIR/memory_scale.png from DIR/memory_scale.json, measuring nothing",
+    )
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)  # internal
     parser.add_argument("--one-curve", action="store_true", help=argparse.SUPPRESS)  # internal
     parser.add_argument("--device-info", action="store_true", help=argparse.SUPPRESS)  # internal
     args = parser.parse_args(argv)
     args.argv = argv
-    if any(value is not None and value < 1 for value in
-           (args.particles, args.steps, args.grid, *(args.horizons or ()),
-            *(args.particle_counts or ()))) or args.repeats < 1:
-        parser.error("--particles, --steps, --grid, --horizons, --particle-counts and "
-                     "--repeats must be positive")
+    if (
+        any(
+            value is not None and value < 1
+            for value in (
+                args.particles,
+                args.steps,
+                args.grid,
+                *(args.horizons or ()),
+                *(args.particle_counts or ()),
+            )
+        )
+        or args.repeats < 1
+    ):
+        parser.error(
+            "--particles, --steps, --grid, --horizons, --particle-counts and --repeats must be positive"
+        )
     if args.device_info:
         from sim_speed import device_info
 
         print(json.dumps(device_info()))
         return
     if args.one_curve:
-        print(json.dumps(measure_curve_point(
-            args.particles, args.steps, args.checkpoint_every[0], args.grid, args.repeats,
-            args.repeat_budget, 1024 * args.max_memory_gb)))
+        print(
+            json.dumps(
+                measure_curve_point(
+                    args.particles,
+                    args.steps,
+                    args.checkpoint_every[0],
+                    args.grid,
+                    args.repeats,
+                    args.repeat_budget,
+                    1024 * args.max_memory_gb,
+                )
+            )
+        )
         return
     if args.replot:
         with open(os.path.join(args.replot, "memory_scale.json")) as file:
@@ -466,29 +645,48 @@ def main(argv=None):
     args.steps = args.steps or 4096
     args.grid = args.grid or 64
     if args.one:
-        print(json.dumps(measure(args.particles, args.steps, args.checkpoint_every[0], args.grid,
-                                 args.compile_only)))
+        print(
+            json.dumps(
+                measure(args.particles, args.steps, args.checkpoint_every[0], args.grid, args.compile_only)
+            )
+        )
         return
     results = []
     for every in args.checkpoint_every:
-        arguments = ["--one", "--particles", str(args.particles), "--steps", str(args.steps),
-                     "--grid", str(args.grid), "--checkpoint-every", str(every).lower()]
+        arguments = [
+            "--one",
+            "--particles",
+            str(args.particles),
+            "--steps",
+            str(args.steps),
+            "--grid",
+            str(args.grid),
+            "--checkpoint-every",
+            str(every).lower(),
+        ]
         arguments += ["--compile-only"] if args.compile_only else []
         results.append(measure_in_fresh_process(__file__, arguments, f"checkpoint_every={every}"))
         if not args.json:
             r = results[-1]
             if len(results) == 1:
                 device = r["device"]
-                print(f"device: {device['device_kind']} ({device['platform']}); "
-                      f"{r['particles']} particles, {r['steps']} steps, grid {args.grid}^3")
-                print(f"{'checkpoint_every':>16s} {'peak_rss_MB':>11s} {'before_run':>10s} "
-                      f"{'device_MB':>9s} {'xla_temp_MB':>11s} {'states_MB':>9s} {'run_s':>7s} "
-                      f"{'compile_s':>9s}")
+                print(
+                    f"device: {device['device_kind']} ({device['platform']}); "
+                    f"{r['particles']} particles, {r['steps']} steps, grid {args.grid}^3"
+                )
+                print(
+                    f"{'checkpoint_every':>16s} {'peak_rss_MB':>11s} {'before_run':>10s} "
+                    f"{'device_MB':>9s} {'xla_temp_MB':>11s} {'states_MB':>9s} {'run_s':>7s} "
+                    f"{'compile_s':>9s}"
+                )
             show = lambda value, spec: "-" if value is None else format(value, spec)
-            print(f"{str(r['checkpoint_every']):>16s} {r['peak_rss_mb']:11.0f} "
-                  f"{r['rss_before_run_mb']:10.0f} {show(r['peak_device_mb'], '9.0f')} "
-                  f"{show(r['xla_temp_mb'], '11.0f')} {r['stored_states_mb']:9.0f} "
-                  f"{show(r.get('run_s'), '7.2f')} {r['compile_s']:9.1f}", flush=True)
+            print(
+                f"{str(r['checkpoint_every']):>16s} {r['peak_rss_mb']:11.0f} "
+                f"{r['rss_before_run_mb']:10.0f} {show(r['peak_device_mb'], '9.0f')} "
+                f"{show(r['xla_temp_mb'], '11.0f')} {r['stored_states_mb']:9.0f} "
+                f"{show(r.get('run_s'), '7.2f')} {r['compile_s']:9.1f}",
+                flush=True,
+            )
             if r.get("healthy") is False:
                 print("  (the rollout went non-finite or left the grid)")
     if args.json:

@@ -40,17 +40,19 @@ def load_buffer(run_dir: pathlib.Path):
     directory."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
     from gradient_horizon import state_of_run
+
     from litl.loop import make_algorithm
 
     robot, config, state = state_of_run(run_dir)
     algorithm = make_algorithm(robot, config)
     if not algorithm.observer.learned:
-        raise SystemExit(f"{run_dir}: observer {config.observer.kind!r} does not learn from "
-                         f"snapshots; give a run of a learned observer (vae, ae)")
+        raise SystemExit(
+            f"{run_dir}: observer {config.observer.kind!r} does not learn from "
+            f"snapshots; give a run of a learned observer (vae, ae)"
+        )
     count = int(state.buffer.count)
     fields = np.asarray(state.buffer.fields[:count], np.float64)
-    return fields, np.asarray(state.buffer.velocities[:count], np.float64), algorithm, \
-        state.observer
+    return fields, np.asarray(state.buffer.velocities[:count], np.float64), algorithm, state.observer
 
 
 def explained_by_pca(fields, train, held_out, components) -> dict[int, float]:
@@ -119,32 +121,44 @@ def main(argv=None):
 
     fields, velocities, algorithm, params = load_buffer(args.run_dir)
     order = np.random.default_rng(args.seed).permutation(len(fields))
-    train, held_out = order[: len(order) // 2], order[len(order) // 2:]
+    train, held_out = order[: len(order) // 2], order[len(order) // 2 :]
     spatial = fields.ndim - 2
-    views = {"field": fields, "pooled 2x": pooled(fields, 2), "pooled 4x": pooled(fields, 4),
-             "smoothed (sigma 1 node)": gaussian_filter(
-                 fields, sigma=(0,) + (1.0,) * spatial + (0,), mode="constant")}
+    views = {
+        "field": fields,
+        "pooled 2x": pooled(fields, 2),
+        "pooled 4x": pooled(fields, 4),
+        "smoothed (sigma 1 node)": gaussian_filter(
+            fields, sigma=(0,) + (1.0,) * spatial + (0,), mode="constant"
+        ),
+    }
     result = {
-        "run": str(args.run_dir), "snapshots": len(fields), "window": list(fields.shape[1:-1]),
+        "run": str(args.run_dir),
+        "snapshots": len(fields),
+        "window": list(fields.shape[1:-1]),
         "latent_dim": algorithm.model.latent_dim,
-        "observer_explained_held_out": explained_by_observer(algorithm, params,
-                                                             fields[held_out]),
-        "pca_explained_held_out": {view: explained_by_pca(data, train, held_out,
-                                                          args.components)
-                                   for view, data in views.items()},
+        "observer_explained_held_out": explained_by_observer(algorithm, params, fields[held_out]),
+        "pca_explained_held_out": {
+            view: explained_by_pca(data, train, held_out, args.components) for view, data in views.items()
+        },
         "velocity_r2_held_out": {
-            "observer": velocity_readout_r2(observer_codes(algorithm, params, fields), velocities,
-                                            train, held_out),
-            **{f"pca r={r}": velocity_readout_r2(pca_codes(fields, train, r), velocities, train,
-                                                 held_out) for r in args.components}},
+            "observer": velocity_readout_r2(
+                observer_codes(algorithm, params, fields), velocities, train, held_out
+            ),
+            **{
+                f"pca r={r}": velocity_readout_r2(pca_codes(fields, train, r), velocities, train, held_out)
+                for r in args.components
+            },
+        },
     }
     if args.json:
         print(json.dumps(result, indent=1))
         return
     print(f"{result['run']}: {result['snapshots']} snapshots of {result['window']} nodes")
-    print(f"the run's observer (r = {result['latent_dim']}): "
-          f"{result['observer_explained_held_out']:.3f} of the held-out energy "
-          f"(it saw part of these snapshots in training)")
+    print(
+        f"the run's observer (r = {result['latent_dim']}): "
+        f"{result['observer_explained_held_out']:.3f} of the held-out energy "
+        f"(it saw part of these snapshots in training)"
+    )
     print("PCA, held-out energy explained by r components:")
     print("  view                      " + "".join(f"r={r:<6}" for r in args.components))
     for view, by_rank in result["pca_explained_held_out"].items():

@@ -103,8 +103,7 @@ import time
 
 import numpy as np
 
-VARIANTS = ("window", "at_add", "segment_sum_sorted", "one_hot", "one_hot_separable",
-            "no_scatter")
+VARIANTS = ("window", "at_add", "segment_sum_sorted", "one_hot", "one_hot_separable", "no_scatter")
 SIZES = ("biped64", "block128", "quadruped32", "quadruped64")
 QUICK_SIZES = ("biped64", "quadruped16")
 ONE_HOT = ("one_hot", "one_hot_separable")
@@ -116,8 +115,11 @@ def scene(name: str):
     if name in ("biped64", "quadruped16", "quadruped32"):
         from litl.robots import catalog
 
-        robot, dx = {"biped64": ("biped", 1 / 64), "quadruped16": ("quadruped", 1 / 16),
-                     "quadruped32": ("quadruped", 1 / 32)}[name]
+        robot, dx = {
+            "biped64": ("biped", 1 / 64),
+            "quadruped16": ("quadruped", 1 / 16),
+            "quadruped32": ("quadruped", 1 / 32),
+        }[name]
         built = catalog.get(robot, dx)
         return np.asarray(built.layout.positions), tuple(built.config.grid_shape), dx
     if name == "block128":
@@ -137,6 +139,7 @@ def scene(name: str):
 
 # ---- the scatters: (stencil, values (n, 3, ..., 3, c), grid_shape) -> (*grid_shape, c)
 
+
 def _flat(st, values, grid_shape):
     """Flat node id (n * 3^d,) and value row (n * 3^d, c) of every stencil contribution, in the
     C order of `values`' (3, ..., 3) stencil axes."""
@@ -144,8 +147,7 @@ def _flat(st, values, grid_shape):
 
     dim = len(grid_shape)
     offsets = jnp.asarray(list(itertools.product(range(3), repeat=dim)), jnp.int32)
-    strides = jnp.asarray(np.cumprod((tuple(grid_shape[1:]) + (1,))[::-1])[::-1].copy(),
-                          jnp.int32)
+    strides = jnp.asarray(np.cumprod((tuple(grid_shape[1:]) + (1,))[::-1])[::-1].copy(), jnp.int32)
     ids = jnp.sum((st.base[:, None, :] + offsets[None]) * strides, -1).reshape(-1)
     return ids, values.reshape(-1, values.shape[-1])
 
@@ -171,8 +173,11 @@ def _permutation():
 
     def backward(order, cotangent):
         # The transpose of a permutation is its inverse: a scatter of unique rows, no sums.
-        inverse = jax.numpy.zeros_like(cotangent).at[order].set(
-            cotangent, unique_indices=True, mode="promise_in_bounds")
+        inverse = (
+            jax.numpy.zeros_like(cotangent)
+            .at[order]
+            .set(cotangent, unique_indices=True, mode="promise_in_bounds")
+        )
         return inverse, None
 
     permute.defvjp(forward, backward)
@@ -186,8 +191,7 @@ def scatter_segment_sum_sorted(st, values, grid_shape):
     ids, rows = _flat(st, values, grid_shape)
     sorted_ids, order = jax.lax.sort_key_val(ids, jnp.arange(ids.shape[0], dtype=jnp.int32))
     rows = _permutation()(rows, order)
-    grid = jax.ops.segment_sum(rows, sorted_ids, num_segments=math.prod(grid_shape),
-                               indices_are_sorted=True)
+    grid = jax.ops.segment_sum(rows, sorted_ids, num_segments=math.prod(grid_shape), indices_are_sorted=True)
     return grid.reshape(tuple(grid_shape) + rows.shape[-1:])
 
 
@@ -207,14 +211,16 @@ def scatter_one_hot_separable(st, values, grid_shape):
     import jax.numpy as jnp
 
     dim = len(grid_shape)
-    hots = [((st.base[:, a, None, None] + jnp.arange(3)[None, :, None])
-             == jnp.arange(n)[None, None, :]).astype(values.dtype)
-            for a, n in enumerate(grid_shape)]
+    hots = [
+        ((st.base[:, a, None, None] + jnp.arange(3)[None, :, None]) == jnp.arange(n)[None, None, :]).astype(
+            values.dtype
+        )
+        for a, n in enumerate(grid_shape)
+    ]
     stencil_axes, grid_axes = "abc"[:dim], "ijk"[:dim]
     spec = ",".join(f"p{s}{g}" for s, g in zip(stencil_axes, grid_axes))
     spec += f",p{stencil_axes}z->{grid_axes}z"
-    return jnp.einsum(spec, *hots, values, optimize="optimal",
-                      precision=jax.lax.Precision.HIGHEST)
+    return jnp.einsum(spec, *hots, values, optimize="optimal", precision=jax.lax.Precision.HIGHEST)
 
 
 def no_scatter(st, values, grid_shape):
@@ -226,9 +232,13 @@ def no_scatter(st, values, grid_shape):
     return jnp.zeros(tuple(grid_shape) + values.shape[-1:], values.dtype) + total
 
 
-SCATTERS = {"at_add": scatter_at_add, "segment_sum_sorted": scatter_segment_sum_sorted,
-            "one_hot": scatter_one_hot, "one_hot_separable": scatter_one_hot_separable,
-            "no_scatter": no_scatter}
+SCATTERS = {
+    "at_add": scatter_at_add,
+    "segment_sum_sorted": scatter_segment_sum_sorted,
+    "one_hot": scatter_one_hot,
+    "one_hot_separable": scatter_one_hot_separable,
+    "no_scatter": no_scatter,
+}
 
 
 @contextlib.contextmanager
@@ -268,9 +278,18 @@ def problem(name: str, dtype=np.float32, seed: int = 0):
     affine = rng.normal(0.0, 1.0, (dim, dim, n)) * mass * (4.0 / dx)
     weights = rng.normal(0.0, 1.0, tuple(grid_shape) + (1 + dim,))
     cast = lambda a: np.asarray(a, dtype)
-    return dict(x=cast(x), v=cast(v), mass=cast(mass), affine=cast(affine),
-                weights=cast(weights), dx=dx, grid_shape=grid_shape, loops=loops,
-                particles=n, contributions=contributions)
+    return dict(
+        x=cast(x),
+        v=cast(v),
+        mass=cast(mass),
+        affine=cast(affine),
+        weights=cast(weights),
+        dx=dx,
+        grid_shape=grid_shape,
+        loops=loops,
+        particles=n,
+        contributions=contributions,
+    )
 
 
 def programs(prob, loops: int):
@@ -303,7 +322,9 @@ def programs(prob, loops: int):
                 total, x = carry
                 value = total_of(x, v, mass, affine)
                 return total + value, x + (1e-3 * dx) * jnp.tanh(value)
+
             return jax.lax.fori_loop(0, loops, body, (jnp.zeros((), x.dtype), x))[0]
+
         return run
 
     def forward_backward_total(x, v, mass, affine):
@@ -343,18 +364,20 @@ def measure(name: str, variants, repeats: int, one_hot_max_nodes: int) -> dict:
             compile_forward_backward = time.perf_counter() - start
         if reference is None:
             reference = (grid, grads)
-        elif variant != "no_scatter":   # every variant must compute the same transfer
+        elif variant != "no_scatter":  # every variant must compute the same transfer
             _close(grid, reference[0], f"{name}: {variant}'s grid")
             for got, want, what in zip(grads, reference[1], ("positions", "velocities")):
                 _close(got, want, f"{name}: {variant}'s gradient for the {what}")
-        jax.block_until_ready((fwd(*args), fwd_bwd(*args)))   # warm-up
+        jax.block_until_ready((fwd(*args), fwd_bwd(*args)))  # warm-up
         compiled[variant] = (fwd, fwd_bwd)
-        results[variant] = {"transfers_per_call": loops,
-                            "compile_forward_s": round(compile_forward, 2),
-                            "compile_forward_backward_s": round(compile_forward_backward, 2)}
+        results[variant] = {
+            "transfers_per_call": loops,
+            "compile_forward_s": round(compile_forward, 2),
+            "compile_forward_backward_s": round(compile_forward_backward, 2),
+        }
     times = {variant: ([], []) for variant in variants}
     for _ in range(repeats):
-        for variant in variants:   # in turn, so that a slow spell of the machine hits all alike
+        for variant in variants:  # in turn, so that a slow spell of the machine hits all alike
             for program, store in zip(compiled[variant], times[variant]):
                 start = time.perf_counter()
                 jax.block_until_ready(program(*args))
@@ -364,26 +387,46 @@ def measure(name: str, variants, repeats: int, one_hot_max_nodes: int) -> dict:
         forward_us = statistics.median(times[variant][0]) * 1e6
         forward_backward_us = statistics.median(times[variant][1]) * 1e6
         results[variant].update(
-            forward_us=round(forward_us, 1), forward_backward_us=round(forward_backward_us, 1),
-            ratio_vs_window=(None if base is None
-                             else round(forward_backward_us / (base * 1e6), 3)))
-    return {"particles": prob["particles"], "grid_shape": list(prob["grid_shape"]),
-            "contributions": prob["contributions"],
-            "repeats": repeats, "variants": results}
+            forward_us=round(forward_us, 1),
+            forward_backward_us=round(forward_backward_us, 1),
+            ratio_vs_window=(None if base is None else round(forward_backward_us / (base * 1e6), 3)),
+        )
+    return {
+        "particles": prob["particles"],
+        "grid_shape": list(prob["grid_shape"]),
+        "contributions": prob["contributions"],
+        "repeats": repeats,
+        "variants": results,
+    }
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--quick", action="store_true", help=f"sizes {' '.join(QUICK_SIZES)}")
-    parser.add_argument("--sizes", nargs="+", choices=SIZES + ("quadruped16",), default=None,
-                        help=f"default: {' '.join(SIZES)}")
-    parser.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS),
-                        help="window (litl's) is the reference and always runs first")
+    parser.add_argument(
+        "--sizes",
+        nargs="+",
+        choices=SIZES + ("quadruped16",),
+        default=None,
+        help=f"default: {' '.join(SIZES)}",
+    )
+    parser.add_argument(
+        "--variants",
+        nargs="+",
+        choices=VARIANTS,
+        default=list(VARIANTS),
+        help="window (litl's) is the reference and always runs first",
+    )
     parser.add_argument("--repeats", type=int, default=7, help="timed runs per measurement (>= 1)")
-    parser.add_argument("--one-hot-max-nodes", type=int, default=64 * 64,
-                        help="largest grid (nodes) the one-hot variants run on")
+    parser.add_argument(
+        "--one-hot-max-nodes",
+        type=int,
+        default=64 * 64,
+        help="largest grid (nodes) the one-hot variants run on",
+    )
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats must be positive")
@@ -392,10 +435,10 @@ def main(argv=None):
     sizes = args.sizes or (QUICK_SIZES if args.quick else SIZES)
     variants = ["window"] + [v for v in args.variants if v != "window"]
     device = jax.devices()[0]
-    results = {"device": {"platform": device.platform, "device_kind": device.device_kind,
-                          "jax": jax.__version__},
-               "sizes": {name: measure(name, variants, args.repeats, args.one_hot_max_nodes)
-                         for name in sizes}}
+    results = {
+        "device": {"platform": device.platform, "device_kind": device.device_kind, "jax": jax.__version__},
+        "sizes": {name: measure(name, variants, args.repeats, args.one_hot_max_nodes) for name in sizes},
+    }
     if args.json:
         print(json.dumps(results))
         return
@@ -404,20 +447,27 @@ def main(argv=None):
 
 def print_table(results: dict, repeats: int):
     device = results["device"]
-    print(f"device: {device['device_kind']} ({device['platform']}), jax {device['jax']}; "
-          f"microseconds per transfer, medians of {repeats}")
-    print(f"{'size':12s} {'particles':>9s} {'grid':>10s} {'variant':19s} {'forward_us':>11s} "
-          f"{'fwd+bwd_us':>11s} {'vs_window':>9s} {'compile_s':>10s}")
+    print(
+        f"device: {device['device_kind']} ({device['platform']}), jax {device['jax']}; "
+        f"microseconds per transfer, medians of {repeats}"
+    )
+    print(
+        f"{'size':12s} {'particles':>9s} {'grid':>10s} {'variant':19s} {'forward_us':>11s} "
+        f"{'fwd+bwd_us':>11s} {'vs_window':>9s} {'compile_s':>10s}"
+    )
     for name, r in results["sizes"].items():
         grid = "x".join(map(str, r["grid_shape"]))
         for variant, t in r["variants"].items():
             compile_s = t["compile_forward_s"] + t["compile_forward_backward_s"]
             ratio = "" if t["ratio_vs_window"] is None else f"{t['ratio_vs_window']:.2f}"
-            print(f"{name:12s} {r['particles']:9d} {grid:>10s} {variant:19s} "
-                  f"{t['forward_us']:11.1f} {t['forward_backward_us']:11.1f} {ratio:>9s} "
-                  f"{compile_s:10.2f}")
-    print("vs_window: forward+backward time / window's; compile_s: forward and forward+backward "
-          "loops together")
+            print(
+                f"{name:12s} {r['particles']:9d} {grid:>10s} {variant:19s} "
+                f"{t['forward_us']:11.1f} {t['forward_backward_us']:11.1f} {ratio:>9s} "
+                f"{compile_s:10.2f}"
+            )
+    print(
+        "vs_window: forward+backward time / window's; compile_s: forward and forward+backward loops together"
+    )
 
 
 if __name__ == "__main__":

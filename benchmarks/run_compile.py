@@ -47,8 +47,9 @@ def measure(overrides: list[str], seeds: int) -> dict:
 
     class _Compiles(logging.Handler):
         def emit(self, record):
-            found = re.search(r"Finished XLA compilation of jit\((\w+)\) in ([0-9.e-]+) sec",
-                              record.getMessage())
+            found = re.search(
+                r"Finished XLA compilation of jit\((\w+)\) in ([0-9.e-]+) sec", record.getMessage()
+            )
             if found:
                 compiled.append((found.group(1), float(found.group(2))))
 
@@ -66,8 +67,17 @@ def measure(overrides: list[str], seeds: int) -> dict:
 
     jax.monitoring.register_event_duration_secs_listener(listen)
     start = time.perf_counter()
-    config = compose([*overrides, f"seeds={seeds}", "loop.episodes=2", "loop.iterations=1",
-                      "output.pictures=false", "output.animation=false", "output.progress=false"])
+    config = compose(
+        [
+            *overrides,
+            f"seeds={seeds}",
+            "loop.episodes=2",
+            "loop.iterations=1",
+            "output.pictures=false",
+            "output.animation=false",
+            "output.progress=false",
+        ]
+    )
     with tempfile.TemporaryDirectory() as run_dir:
         run_experiment(config, run_dir)
     wall = time.perf_counter() - start
@@ -77,43 +87,53 @@ def measure(overrides: list[str], seeds: int) -> dict:
         entry = programs.setdefault(name, [0.0, 0]) if name in RUN_PROGRAMS else eager
         entry[0] += seconds
         entry[1] += 1
-    programs = dict(sorted(((k, [round(v[0], 2), v[1]]) for k, v in programs.items()),
-                           key=lambda item: -item[1][0]))
+    programs = dict(
+        sorted(((k, [round(v[0], 2), v[1]]) for k, v in programs.items()), key=lambda item: -item[1][0])
+    )
     programs[f"eager ({eager[1]} programs)"] = [round(eager[0], 2), eager[1]]
-    return {"overrides": overrides, "seeds": seeds, "wall_s": round(wall, 2),
-            "compile_s": round(totals["compile"], 2), "trace_s": round(totals["trace"], 2),
-            "programs": programs,
-            "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)}
+    return {
+        "overrides": overrides,
+        "seeds": seeds,
+        "wall_s": round(wall, 2),
+        "compile_s": round(totals["compile"], 2),
+        "trace_s": round(totals["trace"], 2),
+        "programs": programs,
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--overrides", nargs="*", default=None,
-                        help="Hydra overrides of one case (default: the biped under method=paper "
-                             "and method=litl)")
+    parser.add_argument(
+        "--overrides",
+        nargs="*",
+        default=None,
+        help="Hydra overrides of one case (default: the biped under method=paper and method=litl)",
+    )
     parser.add_argument("--scale", choices=("demo", "smoke"), default="demo")
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--json", action="store_true", help="print the results as JSON lines")
-    parser.add_argument("--case", help=argparse.SUPPRESS)        # one case, in this process
+    parser.add_argument("--case", help=argparse.SUPPRESS)  # one case, in this process
     args = parser.parse_args()
     if args.case is not None:
         print(json.dumps(measure(json.loads(args.case), args.seeds)))
         return
     scale = ["robot.resolution=demo"] if args.scale == "demo" else ["+scale=smoke"]
-    cases = ([args.overrides] if args.overrides is not None else
-             [["method=paper"], ["method=litl"]])
+    cases = [args.overrides] if args.overrides is not None else [["method=paper"], ["method=litl"]]
     os.environ.pop("JAX_COMPILATION_CACHE_DIR", None)
     for case in cases:
         overrides = [*case, *scale]
         result = measure_in_fresh_process(
-            __file__, ["--case", json.dumps(overrides), "--seeds", str(args.seeds)],
-            " ".join(overrides))
+            __file__, ["--case", json.dumps(overrides), "--seeds", str(args.seeds)], " ".join(overrides)
+        )
         if args.json:
             print(json.dumps(result))
             continue
-        print(f"{' '.join(overrides)}, {args.seeds} seeds: run {result['wall_s']} s, XLA "
-              f"compilation {result['compile_s']} s, tracing {result['trace_s']} s, peak RSS "
-              f"{result['peak_rss_mb']} MB")
+        print(
+            f"{' '.join(overrides)}, {args.seeds} seeds: run {result['wall_s']} s, XLA "
+            f"compilation {result['compile_s']} s, tracing {result['trace_s']} s, peak RSS "
+            f"{result['peak_rss_mb']} MB"
+        )
         for name, (seconds, count) in result["programs"].items():
             print(f"  {name:24s} {seconds:7.2f} s  x{count}")
     sys.stdout.flush()

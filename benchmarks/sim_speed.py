@@ -108,7 +108,10 @@ def quadruped_scene(dtype=None):
     mu, lam = (float(p[0]) for p in design.lame())
     speed = np.sqrt((lam + 2 * mu + 0.3 * youngs) / density)
     config = SimConfig(
-        grid_shape=(64, 64, 64), dx=dx, dt=0.5 * dx / speed, gravity=(0.0, -9.8, 0.0),
+        grid_shape=(64, 64, 64),
+        dx=dx,
+        dt=0.5 * dx / speed,
+        gravity=(0.0, -9.8, 0.0),
         boundary=Boundary.box(3, floor=Wall("friction", 0.5), sides="sticky"),
         constitutive_model="neo_hookean",
     )
@@ -152,16 +155,18 @@ def block_scene(particles: int = BLOCK_PARTICLES, n_grid: int = 128, dtype=None)
 
     dtype = dtype or jnp.float32
     dx = 1.0 / n_grid
-    cells = math.ceil((particles / 8) ** (1 / 3) - 1e-9)    # cells per side, 2^3 particles each
+    cells = math.ceil((particles / 8) ** (1 / 3) - 1e-9)  # cells per side, 2^3 particles each
     if not 0 < cells <= n_grid - 16:
-        raise SystemExit(f"--particles {particles} does not fit a {n_grid}^3 grid (1 to "
-                         f"{8 * (n_grid - 16) ** 3} particles)")
+        raise SystemExit(
+            f"--particles {particles} does not fit a {n_grid}^3 grid (1 to "
+            f"{8 * (n_grid - 16) ** 3} particles)"
+        )
     # Half a cell more than `cells` so that sample_box's int(size / dx) is `cells`, not one less.
     size = (cells + 0.5) * dx
     x = sample_box([(n_grid - cells) / 2 * dx, 4 * dx, (n_grid - cells) / 2 * dx], [size] * 3, dx)
     n = len(x)
     youngs, poisson, density = 3000.0, 0.3, 1.0
-    strength = 0.2 * youngs                      # an active strain of 0.15 (safety's bound: 0.2)
+    strength = 0.2 * youngs  # an active strain of 0.15 (safety's bound: 0.2)
     design = Design.uniform(n, youngs, poisson, density, [strength], dtype)
     body = Body(
         volume=jnp.full((n,), (dx / 2) ** 3, dtype),
@@ -172,14 +177,16 @@ def block_scene(particles: int = BLOCK_PARTICLES, n_grid: int = 128, dtype=None)
     mu, lam = (float(p[0]) for p in design.lame())
     speed = math.sqrt((lam + 2 * mu + strength) / density)
     config = SimConfig(
-        grid_shape=(n_grid,) * 3, dx=dx, dt=0.4 * dx / speed, gravity=(0.0, -9.8, 0.0),
+        grid_shape=(n_grid,) * 3,
+        dx=dx,
+        dt=0.4 * dx / speed,
+        gravity=(0.0, -9.8, 0.0),
         boundary=Boundary.box(3, floor="sticky", sides="sticky"),
     )
     return config, body, design, SimState.at_rest(jnp.asarray(x, dtype))
 
 
-def block_problem(steps: int, particles: int, n_grid: int = 128,
-                  checkpoint_every: int | None = None):
+def block_problem(steps: int, particles: int, n_grid: int = 128, checkpoint_every: int | None = None):
     """`block_scene`'s loss (mean final x), its value_and_grad for every particle's Young's
     modulus, that (n,) modulus and n (`benchmarks/memory_scale.py` uses it too)."""
     import jax
@@ -207,14 +214,17 @@ def device_info() -> dict:
     import jax
 
     device = jax.devices()[0]
-    return {"platform": device.platform, "device_kind": device.device_kind,
-            "device_count": jax.device_count()}
+    return {
+        "platform": device.platform,
+        "device_kind": device.device_kind,
+        "device_count": jax.device_count(),
+    }
 
 
 def _peak_device_mb():
     import jax
 
-    stats = jax.devices()[0].memory_stats() or {}   # None on CPU
+    stats = jax.devices()[0].memory_stats() or {}  # None on CPU
     peak = stats.get("peak_bytes_in_use")
     return None if peak is None else round(peak / 2**20, 1)
 
@@ -264,8 +274,7 @@ def run_scene(name: str, repeats: int, steps: int | None, particles: int = BLOCK
         "particles": batch_particles,
         "steps": steps,
         "forward_particle_steps_per_s": float(f"{particle_steps / forward_s:.4g}"),
-        "forward_backward_particle_steps_per_s":
-            float(f"{particle_steps / forward_backward_s:.4g}"),
+        "forward_backward_particle_steps_per_s": float(f"{particle_steps / forward_backward_s:.4g}"),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
         "peak_device_mb": _peak_device_mb(),
         "repeats": repeats,
@@ -283,14 +292,25 @@ def _child(arguments: list[str]) -> dict:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--scenes", nargs="+", default=None, choices=SCENES,
-                        help=f"default: {' '.join(CPU_SCENES)} on a CPU, all scenes elsewhere")
+    parser.add_argument(
+        "--scenes",
+        nargs="+",
+        default=None,
+        choices=SCENES,
+        help=f"default: {' '.join(CPU_SCENES)} on a CPU, all scenes elsewhere",
+    )
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per measurement (>= 1)")
     parser.add_argument("--steps", type=int, default=None, help="override the steps (smoke runs)")
-    parser.add_argument("--particles", type=int, default=BLOCK_PARTICLES,
-                        help="at least this many particles in block3d_1m (smoke runs: e.g. 4000)")
+    parser.add_argument(
+        "--particles",
+        type=int,
+        default=BLOCK_PARTICLES,
+        help="at least this many particles in block3d_1m (smoke runs: e.g. 4000)",
+    )
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one scene in-process
     parser.add_argument("--device-info", action="store_true", help=argparse.SUPPRESS)  # internal
     args = parser.parse_args(argv)
@@ -306,26 +326,33 @@ def main(argv=None):
     scenes = args.scenes or (CPU_SCENES if device["platform"] == "cpu" else SCENES)
     results = {}
     for name in scenes:
-        command = ["--one", name, "--repeats", str(args.repeats),
-                   "--particles", str(args.particles)]
+        command = ["--one", name, "--repeats", str(args.repeats), "--particles", str(args.particles)]
         if args.steps:
             command += ["--steps", str(args.steps)]
         results[name] = _child(command)
     if args.json:
         print(json.dumps(results))
         return
-    print(f"device: {device['device_kind']} ({device['platform']}, {device['device_count']} "
-          f"device{'s' if device['device_count'] > 1 else ''}; the first one is used)")
-    print(f"{'scene':18s} {'forward_s':>10s} {'fwd+bwd_s':>10s} {'compile_s':>10s} {'peak_MB':>9s} "
-          f"{'fwd_Mps/s':>10s} {'f+b_Mps/s':>10s}")
+    print(
+        f"device: {device['device_kind']} ({device['platform']}, {device['device_count']} "
+        f"device{'s' if device['device_count'] > 1 else ''}; the first one is used)"
+    )
+    print(
+        f"{'scene':18s} {'forward_s':>10s} {'fwd+bwd_s':>10s} {'compile_s':>10s} {'peak_MB':>9s} "
+        f"{'fwd_Mps/s':>10s} {'f+b_Mps/s':>10s}"
+    )
     for name, r in results.items():
         peak = r["peak_device_mb"] if r["peak_device_mb"] is not None else r["peak_rss_mb"]
-        print(f"{name:18s} {r['forward_s']:10.3f} {r['forward_backward_s']:10.3f} "
-              f"{r['compile_s']:10.1f} {peak:9.0f} "
-              f"{r['forward_particle_steps_per_s'] / 1e6:10.2f} "
-              f"{r['forward_backward_particle_steps_per_s'] / 1e6:10.2f}")
-    print("Mps/s: million particle-steps per second; peak_MB: the device's peak where it reports "
-          "one, else the process's peak resident memory")
+        print(
+            f"{name:18s} {r['forward_s']:10.3f} {r['forward_backward_s']:10.3f} "
+            f"{r['compile_s']:10.1f} {peak:9.0f} "
+            f"{r['forward_particle_steps_per_s'] / 1e6:10.2f} "
+            f"{r['forward_backward_particle_steps_per_s'] / 1e6:10.2f}"
+        )
+    print(
+        "Mps/s: million particle-steps per second; peak_MB: the device's peak where it reports "
+        "one, else the process's peak resident memory"
+    )
 
 
 if __name__ == "__main__":

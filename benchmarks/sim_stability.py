@@ -37,11 +37,11 @@ def controllers(count: int, seed: int = 0):
 
     keys = jax.random.split(jax.random.key(seed), 3)
     amplitude = jnp.linspace(0.5, 4.0, count)[:, None, None]
-    weights = jnp.concatenate([jnp.asarray(TRAINED_WEIGHTS)[None],
-                               amplitude * jax.random.normal(keys[0], (count, 4, 4))])
+    weights = jnp.concatenate(
+        [jnp.asarray(TRAINED_WEIGHTS)[None], amplitude * jax.random.normal(keys[0], (count, 4, 4))]
+    )
     bias = jnp.concatenate([jnp.asarray(TRAINED_BIAS)[None], jax.random.normal(keys[1], (count, 4))])
-    omega = jnp.concatenate([jnp.array([30.0]),
-                             jax.random.uniform(keys[2], (count,), minval=10, maxval=60)])
+    omega = jnp.concatenate([jnp.array([30.0]), jax.random.uniform(keys[2], (count,), minval=10, maxval=60)])
     return weights, bias, omega
 
 
@@ -74,17 +74,24 @@ def measure(robot, youngs: float, strength: float | None, dt_factor: float, para
         return task_loss(scene.state, final)[0], trajectory
 
     (value, trajectory), grad = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(params)
-    grad_norm = np.sqrt(sum(np.sum(np.asarray(g) ** 2, axis=tuple(range(1, g.ndim)))
-                            for g in jax.tree.leaves(grad)))
+    grad_norm = np.sqrt(
+        sum(np.sum(np.asarray(g) ** 2, axis=tuple(range(1, g.ndim))) for g in jax.tree.leaves(grad))
+    )
     health = trajectory.health
-    failed = ((np.asarray(health.first_nonfinite_step) >= 0)
-              | (np.asarray(health.first_escape_step) >= 0) | ~np.isfinite(grad_norm))
+    failed = (
+        (np.asarray(health.first_nonfinite_step) >= 0)
+        | (np.asarray(health.first_escape_step) >= 0)
+        | ~np.isfinite(grad_norm)
+    )
     det = np.asarray(trajectory.observations).min(axis=1)
     mu, lam = (float(np.asarray(p)[0]) for p in design.lame())
     return {
-        "youngs": youngs, "cfl": wave_speed(scene.body, design) * config.dt / config.dx,
+        "youngs": youngs,
+        "cfl": wave_speed(scene.body, design) * config.dt / config.dx,
         "strain": float(np.max(np.asarray(design.actuator_strength))) / (lam + 2 * mu),
-        "failed": int(failed.sum()), "rollouts": len(failed), "trained_gait_failed": bool(failed[0]),
+        "failed": int(failed.sum()),
+        "rollouts": len(failed),
+        "trained_gait_failed": bool(failed[0]),
         "inverted": int(np.sum(det < 0)),
         "det_p5": float(np.nanpercentile(np.where(failed, np.nan, det), 5)) if (~failed).any() else None,
         "distance": float(np.nanmedian(-np.asarray(value))),
@@ -96,24 +103,31 @@ def main():
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--youngs", nargs="+", type=float, default=[15.0, 20.0, 30.0])
-    parser.add_argument("--strength", type=float, default=None,
-                        help="actuator strength (default: the robot's)")
+    parser.add_argument(
+        "--strength", type=float, default=None, help="actuator strength (default: the robot's)"
+    )
     parser.add_argument("--dt-factor", type=float, default=1.0, help="multiply the robot's dt")
     parser.add_argument("--controllers", type=int, default=32)
     parser.add_argument("--dx", type=float, default=1 / 64)
     args = parser.parse_args()
     robot = litl.robots.get("biped", dx=args.dx)
     params = controllers(args.controllers)
-    print(f"device: {jax.devices()[0].device_kind}; biped dx = {args.dx:g}, "
-          f"dt = {robot.config.dt * args.dt_factor:g}")
-    print(f"{'E':>5s} {'cfl':>5s} {'strain':>6s} {'failed':>8s} {'gait':>5s} {'inverted':>8s} "
-          f"{'det_p5':>7s} {'distance':>8s}")
+    print(
+        f"device: {jax.devices()[0].device_kind}; biped dx = {args.dx:g}, "
+        f"dt = {robot.config.dt * args.dt_factor:g}"
+    )
+    print(
+        f"{'E':>5s} {'cfl':>5s} {'strain':>6s} {'failed':>8s} {'gait':>5s} {'inverted':>8s} "
+        f"{'det_p5':>7s} {'distance':>8s}"
+    )
     for youngs in args.youngs:
         r = measure(robot, youngs, args.strength, args.dt_factor, params)
         det = f"{r['det_p5']:7.3f}" if r["det_p5"] is not None else "    n/a"
-        print(f"{youngs:5g} {r['cfl']:5.2f} {r['strain']:6.3f} {r['failed']:>3d}/{r['rollouts']:<4d} "
-              f"{'FAIL' if r['trained_gait_failed'] else 'ok':>5s} {r['inverted']:8d} {det} "
-              f"{r['distance']:8.3f}")
+        print(
+            f"{youngs:5g} {r['cfl']:5.2f} {r['strain']:6.3f} {r['failed']:>3d}/{r['rollouts']:<4d} "
+            f"{'FAIL' if r['trained_gait_failed'] else 'ok':>5s} {r['inverted']:8d} {det} "
+            f"{r['distance']:8.3f}"
+        )
 
 
 if __name__ == "__main__":

@@ -60,15 +60,17 @@ def programs(shape, implementation, seeds=1):
     def encode_sum(p, x):
         return jnp.sum(jnp.sin(encode(p, x)))
 
-    functions = {"train_step": jax.value_and_grad(train_loss), "encode": encode,
-                 "encode_grad": jax.grad(encode_sum, argnums=1)}
+    functions = {
+        "train_step": jax.value_and_grad(train_loss),
+        "encode": encode,
+        "encode_grad": jax.grad(encode_sum, argnums=1),
+    }
     if seeds == 1:
         params, fields, one = jax.tree.map(lambda leaf: leaf[0], (params, fields, one))
     else:
         functions = {name: jax.vmap(function) for name, function in functions.items()}
     inputs = {"train_step": fields, "encode": one, "encode_grad": one}
-    return {name: (jax.jit(function), (params, inputs[name]))
-            for name, function in functions.items()}
+    return {name: (jax.jit(function), (params, inputs[name])) for name, function in functions.items()}
 
 
 def measure(size: str, repeats: int, seeds: int = 1) -> dict:
@@ -92,12 +94,15 @@ def measure(size: str, repeats: int, seeds: int = 1) -> dict:
                 times.append(time.perf_counter() - start)
             analysis = compiled.memory_analysis()
             rows[f"{name}/{impl}"] = {
-                "median_ms": 1e3 * statistics.median(times), "compile_s": compile_s,
-                "temp_mb": analysis.temp_size_in_bytes / 2**20 if analysis else None}
+                "median_ms": 1e3 * statistics.median(times),
+                "compile_s": compile_s,
+                "temp_mb": analysis.temp_size_in_bytes / 2**20 if analysis else None,
+            }
         for a, b in zip(*(jax.tree_util.tree_leaves(outputs[i]) for i in IMPLEMENTATIONS)):
             scale = float(np.max(np.abs(a))) or 1.0
-            np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale,
-                                       rtol=1e-4, atol=1e-5, err_msg=f"{size} {name}")
+            np.testing.assert_allclose(
+                np.asarray(b) / scale, np.asarray(a) / scale, rtol=1e-4, atol=1e-5, err_msg=f"{size} {name}"
+            )
     return rows
 
 
@@ -105,8 +110,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", choices=sorted(SIZES), default=None)
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--seeds", type=int, default=1,
-                        help="vmap every program over this many seeds (default 1: no vmap)")
+    parser.add_argument(
+        "--seeds", type=int, default=1, help="vmap every program over this many seeds (default 1: no vmap)"
+    )
     parser.add_argument("--quick", action="store_true", help="2d32 and 3d16, 3 repeats")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
@@ -119,22 +125,30 @@ def main(argv=None):
 
     import jax
 
-    results = {"device": str(jax.devices()[0]), "backend": jax.default_backend(),
-               "repeats": repeats, "seeds": args.seeds,
-               "sizes": {s: measure(s, repeats, args.seeds) for s in sizes}}
+    results = {
+        "device": str(jax.devices()[0]),
+        "backend": jax.default_backend(),
+        "repeats": repeats,
+        "seeds": args.seeds,
+        "sizes": {s: measure(s, repeats, args.seeds) for s in sizes},
+    }
     if args.json:
         print(json.dumps(results, indent=1))
         return
     print(f"device {results['device']}, medians of {repeats}, {args.seeds} seed(s) vmapped")
-    print(f"{'size':6} {'program':12} {'xla ms':>9} {'matmul ms':>10} {'speedup':>8} "
-          f"{'compile s (x/m)':>16} {'temp MB (x/m)':>15}")
+    print(
+        f"{'size':6} {'program':12} {'xla ms':>9} {'matmul ms':>10} {'speedup':>8} "
+        f"{'compile s (x/m)':>16} {'temp MB (x/m)':>15}"
+    )
     for size, rows in results["sizes"].items():
         for name in ("train_step", "encode", "encode_grad"):
             x, m = rows[f"{name}/xla"], rows[f"{name}/matmul"]
-            print(f"{size:6} {name:12} {x['median_ms']:9.2f} {m['median_ms']:10.2f} "
-                  f"{x['median_ms'] / m['median_ms']:8.2f} "
-                  f"{x['compile_s']:7.1f}/{m['compile_s']:<7.1f} "
-                  f"{x['temp_mb'] or 0:7.1f}/{m['temp_mb'] or 0:<7.1f}")
+            print(
+                f"{size:6} {name:12} {x['median_ms']:9.2f} {m['median_ms']:10.2f} "
+                f"{x['median_ms'] / m['median_ms']:8.2f} "
+                f"{x['compile_s']:7.1f}/{m['compile_s']:<7.1f} "
+                f"{x['temp_mb'] or 0:7.1f}/{m['temp_mb'] or 0:<7.1f}"
+            )
 
 
 if __name__ == "__main__":

@@ -36,9 +36,11 @@ def _main(cfg) -> None:
         hydra_config = HydraConfig.get()
         # Hydra's record of the job (its own writing is off: hydra.output_subdir is null), written
         # once this process owns the run directory, so a second run on it changes nothing.
-        config_files = {".hydra/config.yaml": OmegaConf.to_yaml(cfg),
-                        ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
-                        ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task))}
+        config_files = {
+            ".hydra/config.yaml": OmegaConf.to_yaml(cfg),
+            ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
+            ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task)),
+        }
         if hydra_config.mode == RunMode.MULTIRUN:
             # Jobs of a sweep may run at once (joblib): each line says whose it is (Hydra's
             # launch lines give each job number's overrides).
@@ -47,7 +49,7 @@ def _main(cfg) -> None:
     except UserError as error:
         # A setting or a run directory litl cannot use: the message says which and what to do;
         # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
-        if not isinstance(error, RunDirectoryError):   # (that directory is another run's)
+        if not isinstance(error, RunDirectoryError):  # (that directory is another run's)
             _remove_if_unused(pathlib.Path(HydraConfig.get().runtime.output_dir))
         if os.environ.get("HYDRA_FULL_ERROR") == "1":
             raise

@@ -15,8 +15,16 @@ import importlib
 import pathlib
 
 import litl.robots
-from litl.config import RESOLUTIONS, Config, MaterialConfig, SettingsError, TaskKind, \
-    from_hydra, register_with_hydra, translate_overrides
+from litl.config import (
+    RESOLUTIONS,
+    Config,
+    MaterialConfig,
+    SettingsError,
+    TaskKind,
+    from_hydra,
+    register_with_hydra,
+    translate_overrides,
+)
 from litl.loop import run
 from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock
@@ -26,10 +34,10 @@ from litl.robots.tasks import Locomotion, Task
 
 def compose(overrides: list[str] = ()) -> Config:
     """Compose the config like the CLI does (for notebooks and tests): `Config`, checked."""
+    import warnings
+
     from hydra import compose as hydra_compose
     from hydra import initialize_config_module
-
-    import warnings
 
     register_with_hydra()
     overrides, messages = translate_overrides(overrides)
@@ -45,10 +53,14 @@ def build_robot(config: Config) -> Robot:
     name, module = config.robot.name, config.robot.module
     import_user_module("robot.module", module, "litl.robots.register")
     if name not in litl.robots.names():
-        hint = (f"; robot.module={module!r} registered no robot of that name" if module else
-                "; a robot of your own: robot.name=<name> robot.module=<module that registers it>")
-        raise SettingsError(f"unknown robot {name!r}; choose one of {litl.robots.names()} "
-                            f"(robot=<name>){hint}", "robot.name")
+        hint = (
+            f"; robot.module={module!r} registered no robot of that name"
+            if module
+            else "; a robot of your own: robot.name=<name> robot.module=<module that registers it>"
+        )
+        raise SettingsError(
+            f"unknown robot {name!r}; choose one of {litl.robots.names()} (robot=<name>){hint}", "robot.name"
+        )
     dx = config.robot.dx
     if dx is None:
         dx = RESOLUTIONS[config.robot.resolution][litl.robots.catalog.ROBOTS[name].dim]
@@ -67,13 +79,17 @@ def _with_material(robot: Robot, material: MaterialConfig) -> Robot:
     allowed design (errors name the robot.material keys as typed)."""
     from litl.sim import ConfigError
 
-    given = ", ".join(f"robot.material.{f.name}={getattr(material, f.name)}"
-                      for f in dataclasses.fields(material) if getattr(material, f.name) is not None)
+    given = ", ".join(
+        f"robot.material.{f.name}={getattr(material, f.name)}"
+        for f in dataclasses.fields(material)
+        if getattr(material, f.name) is not None
+    )
     try:
         return robot.with_material(dataclasses.replace(robot.material, **material.changes()))
     except ConfigError as error:
-        raise SettingsError(f"{given}: {error} ({robot.name}'s own material: "
-                            f"{robot.material})", "robot.material") from None
+        raise SettingsError(
+            f"{given}: {error} ({robot.name}'s own material: {robot.material})", "robot.material"
+        ) from None
 
 
 def import_user_module(key: str, module: str | None, registers: str) -> None:
@@ -83,9 +99,12 @@ def import_user_module(key: str, module: str | None, registers: str) -> None:
     try:
         importlib.import_module(module)
     except ImportError as error:
-        raise SettingsError(f"{key}={module!r} could not be imported ({error}); give a module "
-                            f"importable from the working directory or installed, which calls "
-                            f"{registers}", key) from None
+        raise SettingsError(
+            f"{key}={module!r} could not be imported ({error}); give a module "
+            f"importable from the working directory or installed, which calls "
+            f"{registers}",
+            key,
+        ) from None
 
 
 def check_observer(config: Config) -> None:
@@ -106,21 +125,28 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     robot = build_robot(config)
     check_observer(config)
     run_dir = pathlib.Path(run_dir)
-    say(f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
+    say(
+        f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
-        f"{config.loop.episodes} x {config.loop.iterations} iterations -> {run_dir}")
+        f"{config.loop.episodes} x {config.loop.iterations} iterations -> {run_dir}"
+    )
     run_dir.mkdir(parents=True, exist_ok=True)
-    with RunDirectoryLock(run_dir):        # held through the pictures too
-        result = run(robot, config, run_dir, progress=config.output.progress,
-                     config_files=config_files)
+    with RunDirectoryLock(run_dir):  # held through the pictures too
+        result = run(robot, config, run_dir, progress=config.output.progress, config_files=config_files)
         if config.output.pictures or config.output.animation:
             from litl.pictures import draw_run
 
-            draw_run(robot, config, result, run_dir, animation=config.output.animation,
-                     pictures=config.output.pictures, stride=config.output.animation_stride,
-                     progress=config.output.progress)
-    final = [r["task_loss"] for r in result.metrics[-config.seeds:]]
-    shown = ", ".join("n/a" if v is None else f"{v + 0.0:.6g}" for v in final)   # no "-0.0"
+            draw_run(
+                robot,
+                config,
+                result,
+                run_dir,
+                animation=config.output.animation,
+                pictures=config.output.pictures,
+                stride=config.output.animation_stride,
+                progress=config.output.progress,
+            )
+    final = [r["task_loss"] for r in result.metrics[-config.seeds :]]
+    shown = ", ".join("n/a" if v is None else f"{v + 0.0:.6g}" for v in final)  # no "-0.0"
     say(f"litl: final task loss per seed [{shown}]; results in {run_dir}")
     return result
-

@@ -24,7 +24,6 @@ import dataclasses
 import enum
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Tuple, Union
 
 from litl.errors import UserError
 
@@ -44,50 +43,54 @@ class SettingsError(UserError, ValueError):
 
 class ControllerKind(enum.StrEnum):
     """What maps features to actuation: an MLP (closed loop) or the open-loop sinusoid baseline."""
+
     mlp = "mlp"
     sinusoid = "sinusoid"
 
 
 class Schedule(enum.StrEnum):
     """How the observer's learning alternates with optimization (the paper's ablations)."""
-    alternating = "alternating"     # Algorithm 1: a learning phase after every episode
-    one_shot = "one_shot"           # learn once, from the initial rollout, never again
-    simultaneous = "simultaneous"   # one observer step per optimization iteration, no phases
+
+    alternating = "alternating"  # Algorithm 1: a learning phase after every episode
+    one_shot = "one_shot"  # learn once, from the initial rollout, never again
+    simultaneous = "simultaneous"  # one observer step per optimization iteration, no phases
 
 
 class TaskKind(enum.StrEnum):
-    default = "default"             # the robot's own task (docs/guide/robots.md)
-    locomotion = "locomotion"       # distance walked
-    velocity = "velocity"           # mean forward velocity
+    default = "default"  # the robot's own task (docs/guide/robots.md)
+    locomotion = "locomotion"  # distance walked
+    velocity = "velocity"  # mean forward velocity
 
 
 class Resolution(enum.StrEnum):
     """Grid spacing when robot.dx is null: paper (1/128 2D, 1/32 3D), demo (1/64, 1/32), smoke
     (1/32, 1/16)."""
+
     paper = "paper"
     demo = "demo"
     smoke = "smoke"
 
 
 class Activation(enum.StrEnum):
-    elu = "elu"                     # keeps units alive on the mostly empty field
-    relu = "relu"                   # the paper's
+    elu = "elu"  # keeps units alive on the mostly empty field
+    relu = "relu"  # the paper's
 
 
 class GridField(enum.StrEnum):
-    velocity = "velocity"            # node momentum / mass, the paper's
+    velocity = "velocity"  # node momentum / mass, the paper's
     mass_weighted = "mass_weighted"  # node velocity * mass / a full cell's mass (litl.sim.fields)
 
 
 class FeatureGradient(enum.StrEnum):
-    stop = "stop"                   # the task-loss gradient treats the features as constants
-    full = "full"                   # the paper's end-to-end backpropagation through them
+    stop = "stop"  # the task-loss gradient treats the features as constants
+    full = "full"  # the paper's end-to-end backpropagation through them
 
 
 class LoggerKind(enum.StrEnum):
     """Where a run's live logs go besides metrics.jsonl (`litl.loop.loggers`)."""
-    tensorboard = "tensorboard"     # event files in <run dir>/tensorboard/
-    wandb = "wandb"                 # Weights & Biases, where the package is installed
+
+    tensorboard = "tensorboard"  # event files in <run dir>/tensorboard/
+    wandb = "wandb"  # Weights & Biases, where the package is installed
     none = "none"
 
 
@@ -95,13 +98,14 @@ class Method(enum.StrEnum):
     """Which defaults a run starts from (`method=` on the command line, `Config.for_method`):
     the paper's Algorithm 1 as described, or litl's (the paper's plus its measured additions).
     The keys a method sets are in `litl/conf/method/<name>.yaml`."""
+
     litl = "litl"
     paper = "paper"
 
 
 class DType(enum.StrEnum):
     float32 = "float32"
-    float64 = "float64"             # needs jax.enable_x64
+    float64 = "float64"  # needs jax.enable_x64
 
 
 # The closed-loop controller's clock: the sinusoid baseline's 30 rad/s (about 5 strides a second).
@@ -109,8 +113,11 @@ CLOCK_PERIOD = 2 * math.pi / 30.0
 # The closed-loop controller's input gain on the observer's features (ControllerConfig.feature_scale).
 FEATURE_SCALE = 0.2
 
-RESOLUTIONS = {Resolution.paper: {2: None, 3: None}, Resolution.demo: {2: 1 / 64, 3: 1 / 32},
-               Resolution.smoke: {2: 1 / 32, 3: 1 / 16}}
+RESOLUTIONS = {
+    Resolution.paper: {2: None, 3: None},
+    Resolution.demo: {2: 1 / 64, 3: 1 / 32},
+    Resolution.smoke: {2: 1 / 32, 3: 1 / 16},
+}
 
 
 def _number(value) -> bool:
@@ -152,8 +159,9 @@ class _Checked:
             if value is None and name in optional:
                 continue
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                self._invalid(name, "must be a positive integer" +
-                              (", or null for none" if name in optional else ""))
+                self._invalid(
+                    name, "must be a positive integer" + (", or null for none" if name in optional else "")
+                )
 
     def _positive_numbers(self, *names, optional=(), zero=False):
         for name in names:
@@ -161,9 +169,11 @@ class _Checked:
             if value is None and name in optional:
                 continue
             if not (_number(value) and (value >= 0 if zero else value > 0)):
-                self._invalid(name, ("must be a number >= 0" if zero else
-                                     "must be a positive number") +
-                              (", or null for none" if name in optional else ""))
+                self._invalid(
+                    name,
+                    ("must be a number >= 0" if zero else "must be a positive number")
+                    + (", or null for none" if name in optional else ""),
+                )
 
     def replace(self, **changes):
         """A copy with `changes`; a dict for a nested config changes only the keys it names:
@@ -189,14 +199,23 @@ def _moved_changes(section: str, changes: dict) -> dict:
     for key in flat:
         if key in MOVED_KEYS:
             warnings.warn(moved_message(key), FutureWarning, stacklevel=4)
-    return unflatten({MOVED_KEYS.get(key, key)[len(prefix):]: value
-                      for key, value in flat.items()})
+    return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
 
 
 def _enum_of(annotation):
     text = str(annotation)
-    for kind in (ControllerKind, Schedule, TaskKind, Resolution, Activation, GridField, FeatureGradient,
-                 LoggerKind, Method, DType):
+    for kind in (
+        ControllerKind,
+        Schedule,
+        TaskKind,
+        Resolution,
+        Activation,
+        GridField,
+        FeatureGradient,
+        LoggerKind,
+        Method,
+        DType,
+    ):
         if kind.__name__ in text:
             return kind
     return None
@@ -215,19 +234,21 @@ class MaterialConfig(_Checked):
     """
 
     KEY = "robot.material"
-    youngs_modulus: Optional[float] = None
-    bounds: Optional[Tuple[float, float]] = None
-    poisson_ratio: Optional[float] = None
-    density: Optional[float] = None
-    actuator_strength: Optional[float] = None
+    youngs_modulus: float | None = None
+    bounds: tuple[float, float] | None = None
+    poisson_ratio: float | None = None
+    density: float | None = None
+    actuator_strength: float | None = None
 
     def check(self):
         self._positive_numbers("youngs_modulus", "density", optional=("youngs_modulus", "density"))
-        if self.bounds is not None and not (len(self.bounds) == 2 and all(map(_number, self.bounds))
-                                            and 0 < self.bounds[0] <= self.bounds[1]):
+        if self.bounds is not None and not (
+            len(self.bounds) == 2 and all(map(_number, self.bounds)) and 0 < self.bounds[0] <= self.bounds[1]
+        ):
             self._invalid("bounds", "must be [E_min, E_max] with 0 < E_min <= E_max")
-        if self.poisson_ratio is not None and not (_number(self.poisson_ratio)
-                                                   and -1 < self.poisson_ratio < 0.5):
+        if self.poisson_ratio is not None and not (
+            _number(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5
+        ):
             self._invalid("poisson_ratio", "must lie in (-1, 0.5)")
         if self.actuator_strength is not None and not _number(self.actuator_strength):
             self._invalid("actuator_strength", "must be a finite number")
@@ -235,8 +256,11 @@ class MaterialConfig(_Checked):
     def changes(self) -> dict:
         """The `litl.robots.Material` fields this config sets."""
         names = {"bounds": "youngs_modulus_bounds"}
-        return {names.get(f.name, f.name): getattr(self, f.name)
-                for f in dataclasses.fields(self) if getattr(self, f.name) is not None}
+        return {
+            names.get(f.name, f.name): getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if getattr(self, f.name) is not None
+        }
 
 
 @dataclass(frozen=True)
@@ -254,9 +278,9 @@ class RobotConfig(_Checked):
 
     KEY = "robot"
     name: str = "biped"
-    dx: Optional[float] = None
+    dx: float | None = None
     resolution: Resolution = Resolution.demo
-    module: Optional[str] = None
+    module: str | None = None
     material: MaterialConfig = field(default_factory=MaterialConfig)
 
 
@@ -284,16 +308,15 @@ class AutoencoderConfig(_Checked):
 
     KEY = "observer.vae"
     latent_dim: int = 8
-    window: Optional[float] = 0.5
-    channels: Tuple[int, ...] = (8, 16, 32, 32, 64)
+    window: float | None = 0.5
+    channels: tuple[int, ...] = (8, 16, 32, 32, 64)
     activation: Activation = Activation.elu
     field: GridField = GridField.mass_weighted
 
     def check(self):
         self._positive_ints("latent_dim")
         self._positive_numbers("window", optional=("window",))
-        if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1
-                                              for c in self.channels):
+        if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1 for c in self.channels):
             self._invalid("channels", "needs 5 positive integer widths")
 
 
@@ -325,7 +348,7 @@ class ObserverConfig(_Checked):
 
     KEY = "observer"
     kind: str = "vae"
-    module: Optional[str] = None
+    module: str | None = None
     vae: AutoencoderConfig = field(default_factory=AutoencoderConfig)
     kmeans: KMeansConfig = field(default_factory=KMeansConfig)
 
@@ -346,8 +369,8 @@ class MLPConfig(_Checked):
     """
 
     KEY = "controller.mlp"
-    widths: Tuple[int, ...] = (64, 64)
-    period: Optional[float] = CLOCK_PERIOD
+    widths: tuple[int, ...] = (64, 64)
+    period: float | None = CLOCK_PERIOD
     feature_scale: float = FEATURE_SCALE
     feature_gradient: FeatureGradient = FeatureGradient.stop
 
@@ -407,25 +430,27 @@ class SimSettings(_Checked):
     """
 
     KEY = "sim"
-    steps: Optional[int] = None
+    steps: int | None = None
     dtype: DType = DType.float32
-    checkpoint_every: Optional[Union[int, str]] = "auto"
-    memory_budget: Optional[float] = None
+    checkpoint_every: int | str | None = "auto"
+    memory_budget: float | None = None
 
     def check(self):
         self._positive_ints("steps", optional=("steps",))
         every = self.checkpoint_every
-        if every != "auto" and every is not None and (
-                isinstance(every, bool) or not isinstance(every, int) or every < 1):
-            self._invalid("checkpoint_every", "must be auto, a positive number of steps, or "
-                                              "null for never")
+        if (
+            every != "auto"
+            and every is not None
+            and (isinstance(every, bool) or not isinstance(every, int) or every < 1)
+        ):
+            self._invalid("checkpoint_every", "must be auto, a positive number of steps, or null for never")
         self._positive_numbers("memory_budget", optional=("memory_budget",))
 
-    def budget_bytes(self, rollouts: int) -> Optional[int]:
+    def budget_bytes(self, rollouts: int) -> int | None:
         """The budget of one of `rollouts` vmapped rollouts, in bytes (None: the default's)."""
         if self.memory_budget is None:
             return None
-        return int(self.memory_budget * 2 ** 30 / rollouts)
+        return int(self.memory_budget * 2**30 / rollouts)
 
 
 @dataclass(frozen=True)
@@ -455,13 +480,19 @@ class LearningConfig(_Checked):
     patience: int = 5
     learning_rate: float = 3e-3
     beta: float = 1.0
-    max_steps: Optional[int] = 320
-    patience_steps: Optional[int] = 100
+    max_steps: int | None = 320
+    patience_steps: int | None = 100
     momentum_weight: float = 0.3
 
     def check(self):
-        self._positive_ints("max_epochs", "batch_size", "patience", "max_steps", "patience_steps",
-                            optional=("max_steps", "patience_steps"))
+        self._positive_ints(
+            "max_epochs",
+            "batch_size",
+            "patience",
+            "max_steps",
+            "patience_steps",
+            optional=("max_steps", "patience_steps"),
+        )
         self._positive_numbers("learning_rate", "beta", "momentum_weight", zero=True)
 
 
@@ -487,19 +518,21 @@ class SafeguardsConfig(_Checked):
     """
 
     KEY = "loop.safeguards"
-    gradient_clip: Optional[float] = 1.0
-    update_tolerance: Optional[float] = 0.1
-    step_back_tolerance: Optional[float] = 0.1
+    gradient_clip: float | None = 1.0
+    update_tolerance: float | None = 0.1
+    step_back_tolerance: float | None = 0.1
     final_learning_rate_fraction: float = 0.1
 
     def check(self):
         self._positive_numbers("gradient_clip", optional=("gradient_clip",))
-        self._positive_numbers("update_tolerance", "step_back_tolerance", zero=True,
-                               optional=("update_tolerance", "step_back_tolerance"))
-        if not (_number(self.final_learning_rate_fraction)
-                and 0 <= self.final_learning_rate_fraction <= 1):
-            self._invalid("final_learning_rate_fraction",
-                          "must lie in [0, 1] (1 = constant step sizes)")
+        self._positive_numbers(
+            "update_tolerance",
+            "step_back_tolerance",
+            zero=True,
+            optional=("update_tolerance", "step_back_tolerance"),
+        )
+        if not (_number(self.final_learning_rate_fraction) and 0 <= self.final_learning_rate_fraction <= 1):
+            self._invalid("final_learning_rate_fraction", "must lie in [0, 1] (1 = constant step sizes)")
 
 
 @dataclass(frozen=True)
@@ -541,7 +574,7 @@ class LoopConfig(_Checked):
     codesign: bool = True
     safeguards: SafeguardsConfig = field(default_factory=SafeguardsConfig)
     learning: LearningConfig = field(default_factory=LearningConfig)
-    learning_seeds_at_once: Optional[int] = None
+    learning_seeds_at_once: int | None = None
 
     def check(self):
         self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
@@ -611,10 +644,12 @@ class Config(_Checked):
             raise SettingsError(
                 f"observer.kind={self.observer.kind!r}: the sinusoid controller is open loop and "
                 f"reads no observer; set observer none (controller=sinusoid on the command line "
-                f"does so)", "observer.kind")
+                f"does so)",
+                "observer.kind",
+            )
 
     @classmethod
-    def for_method(cls, method: str | Method) -> "Config":
+    def for_method(cls, method: str | Method) -> Config:
         """The defaults of `method` (``"paper"`` or ``"litl"``), as `method=<name>` on the
         command line gives them: ``Config.for_method("paper").replace(seeds=10)``."""
         return cls().replace(**method_changes(method))
@@ -623,17 +658,17 @@ class Config(_Checked):
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
         match them): method, observer, controller, sim, loop, seeds, seed."""
         tree = json_safe(dataclasses.asdict(self))
-        for section, keys in EXECUTION_KEYS.items():   # they change memory and time only
+        for section, keys in EXECUTION_KEYS.items():  # they change memory and time only
             for key in keys:
                 tree[section].pop(key)
-        return {name: tree[name] for name in ("method", "observer", "controller", "sim", "loop",
-                                              "seeds", "seed")}
+        return {
+            name: tree[name] for name in ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
+        }
 
 
 # Settings that change how much memory and time a run takes, not what it computes (at most its
 # rounding): not in `run.json`, so a run can be resumed with others.
-EXECUTION_KEYS = {"sim": ("checkpoint_every", "memory_budget"),
-                  "loop": ("learning_seeds_at_once",)}
+EXECUTION_KEYS = {"sim": ("checkpoint_every", "memory_budget"), "loop": ("learning_seeds_at_once",)}
 
 
 def seeds_at_once(loop: LoopConfig, seeds: int) -> int:
@@ -654,14 +689,16 @@ def json_safe(tree):
 def method_changes(method: str | Method) -> dict:
     """The nested changes `method` makes to `Config()` (read from litl/conf/method/<name>.yaml,
     the files the command line's `method=` group uses)."""
-    import yaml
     from importlib import resources
+
+    import yaml
 
     try:
         method = Method(method)
     except ValueError:
-        raise SettingsError(f"method={method!r}: choose one of {[m.value for m in Method]}",
-                            "method") from None
+        raise SettingsError(
+            f"method={method!r}: choose one of {[m.value for m in Method]}", "method"
+        ) from None
     text = (resources.files("litl.conf") / "method" / f"{method.value}.yaml").read_text()
     return yaml.safe_load(text) or {}
 
@@ -691,8 +728,7 @@ MOVED_KEYS = {
 
 
 def moved_message(old: str) -> str:
-    return (f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will "
-            f"not for ever")
+    return f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will not for ever"
 
 
 def translate_overrides(overrides) -> tuple[list[str], list[str]]:
@@ -701,7 +737,7 @@ def translate_overrides(overrides) -> tuple[list[str], list[str]]:
     translated, messages = [], []
     for override in overrides:
         prefix = override[:1] if override[:1] in "+~" else ""
-        key, equals, value = override[len(prefix):].partition("=")
+        key, equals, value = override[len(prefix) :].partition("=")
         if key in MOVED_KEYS:
             messages.append(moved_message(key))
             override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
@@ -757,9 +793,23 @@ def flatten(tree: dict, prefix: str = "") -> dict:
 
 
 def _dataclass_of(annotation):
-    for kind in (RobotConfig, MaterialConfig, TaskConfig, ObserverConfig, AutoencoderConfig,
-                 KMeansConfig, ControllerConfig, MLPConfig, SinusoidConfig, SimSettings,
-                 LoopConfig, SafeguardsConfig, LearningConfig, ExperimentConfig, OutputConfig):
+    for kind in (
+        RobotConfig,
+        MaterialConfig,
+        TaskConfig,
+        ObserverConfig,
+        AutoencoderConfig,
+        KMeansConfig,
+        ControllerConfig,
+        MLPConfig,
+        SinusoidConfig,
+        SimSettings,
+        LoopConfig,
+        SafeguardsConfig,
+        LearningConfig,
+        ExperimentConfig,
+        OutputConfig,
+    ):
         if str(annotation) == kind.__name__:
             return kind
     return None

@@ -65,8 +65,9 @@ EPS = (1e-3, 1e-4, 1e-5, 1e-6)
 STILL = 1e-9
 
 
-def check_gradients(config, steps: int = 40, eps=EPS, directions: int = 2, seed: int = 0,
-                    feature_gradient: str = "full") -> tuple[list[Check], float]:
+def check_gradients(
+    config, steps: int = 40, eps=EPS, directions: int = 2, seed: int = 0, feature_gradient: str = "full"
+) -> tuple[list[Check], float]:
     """Directional derivatives of one rollout's task loss, analytic and by central differences.
 
     Args:
@@ -102,9 +103,10 @@ def check_gradients(config, steps: int = 40, eps=EPS, directions: int = 2, seed:
         raise GradcheckError(f"--directions must be a positive count, got {directions!r}")
     # The true gradient: with feature_gradient=stop (litl's default) jax.grad leaves out, by
     # design, the path through the observer's features, which central differences include.
-    config = config.replace(sim={"dtype": DType.float64, "steps": steps},
-                            controller={"mlp": {"feature_gradient":
-                                                FeatureGradient(feature_gradient)}})
+    config = config.replace(
+        sim={"dtype": DType.float64, "steps": steps},
+        controller={"mlp": {"feature_gradient": FeatureGradient(feature_gradient)}},
+    )
     robot = build_robot(config)
     check_observer(config)
     with jax.enable_x64(True):
@@ -118,32 +120,45 @@ def check_gradients(config, steps: int = 40, eps=EPS, directions: int = 2, seed:
             total, _ = algorithm.simulate(x["controller"], x["design"], observer, start)
             return total
 
-        x = {"controller": state.controller, "design": state.design,
-             "initial velocity": initial.v, "initial position": initial.x}
+        x = {
+            "controller": state.controller,
+            "design": state.design,
+            "initial velocity": initial.v,
+            "initial position": initial.x,
+        }
         value, gradient = jax.jit(jax.value_and_grad(loss))(x)
         if not np.isfinite(float(value)):
-            raise GradcheckError(f"the rollout's task loss is {float(value)}: the simulation "
-                                 f"is unhealthy at these settings, nothing to check")
+            raise GradcheckError(
+                f"the rollout's task loss is {float(value)}: the simulation "
+                f"is unhealthy at these settings, nothing to check"
+            )
         if abs(float(value)) < STILL:
             raise GradcheckError(
                 f"the task loss is {float(value):.3g} after {steps} steps: the robot has hardly "
                 f"moved, so its derivatives are at the level of round-off and no difference "
-                f"can check them; give more --steps (e.g. {4 * steps})")
+                f"can check them; give more --steps (e.g. {4 * steps})"
+            )
         f = jax.jit(loss)
         rng = np.random.default_rng(seed)
         checks = []
         for group in GROUPS:
             for d in range(directions):
                 leaves = [rng.normal(size=np.shape(leaf)) for leaf in jax.tree.leaves(x[group])]
-                norm = math.sqrt(sum(float(np.sum(u ** 2)) for u in leaves))
-                u = jax.tree.unflatten(jax.tree.structure(x[group]),
-                                       [jnp.asarray(leaf / norm) for leaf in leaves])
-                analytic = sum(float(jnp.vdot(g, v)) for g, v in
-                               zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u)))
-                shifted = lambda step: {**x, group: jax.tree.map(  # noqa: E731
-                    lambda a, v: a + step * v, x[group], u)}
-                numeric = {e: (float(f(shifted(e))) - float(f(shifted(-e)))) / (2 * e)
-                           for e in eps}
+                norm = math.sqrt(sum(float(np.sum(u**2)) for u in leaves))
+                u = jax.tree.unflatten(
+                    jax.tree.structure(x[group]), [jnp.asarray(leaf / norm) for leaf in leaves]
+                )
+                analytic = sum(
+                    float(jnp.vdot(g, v))
+                    for g, v in zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u))
+                )
+                shifted = lambda step: {
+                    **x,
+                    group: jax.tree.map(  # noqa: E731
+                        lambda a, v: a + step * v, x[group], u
+                    ),
+                }
+                numeric = {e: (float(f(shifted(e))) - float(f(shifted(-e)))) / (2 * e) for e in eps}
                 best = min(eps, key=lambda e: relative_error(analytic, numeric[e]))
                 checks.append(Check(group, d, analytic, numeric[best], best))
     return checks, float(value)
@@ -164,17 +179,23 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m litl.gradcheck",
         description="Check jax.grad of a robot's rollout against central differences in "
-                    "float64: controller, design, initial velocities and positions.")
-    parser.add_argument("overrides", nargs="*",
-                        help="Hydra overrides as for python -m litl, e.g. robot=arm")
+        "float64: controller, design, initial velocities and positions.",
+    )
+    parser.add_argument("overrides", nargs="*", help="Hydra overrides as for python -m litl, e.g. robot=arm")
     parser.add_argument("--steps", type=int, default=40, help="rollout length (default: 40)")
-    parser.add_argument("--eps", type=_steps, default=EPS,
-                        help="central-difference steps along a unit direction, comma-separated; "
-                             "the best agreeing one is reported (default: 1e-3,1e-4,1e-5,1e-6)")
-    parser.add_argument("--directions", type=int, default=2,
-                        help="random directions per parameter group (default: 2)")
-    parser.add_argument("--rtol", type=float, default=1e-4,
-                        help="largest relative error that passes (default: 1e-4)")
+    parser.add_argument(
+        "--eps",
+        type=_steps,
+        default=EPS,
+        help="central-difference steps along a unit direction, comma-separated; "
+        "the best agreeing one is reported (default: 1e-3,1e-4,1e-5,1e-6)",
+    )
+    parser.add_argument(
+        "--directions", type=int, default=2, help="random directions per parameter group (default: 2)"
+    )
+    parser.add_argument(
+        "--rtol", type=float, default=1e-4, help="largest relative error that passes (default: 1e-4)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of parameters and directions")
     return parser
 
@@ -190,21 +211,28 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         config = compose(args.overrides)
-        checks, value = check_gradients(config, args.steps, args.eps, args.directions,
-                                        args.seed)
-    except (UserError, HydraException) as error:    # HydraException: robot=<no such config>
+        checks, value = check_gradients(config, args.steps, args.eps, args.directions, args.seed)
+    except (UserError, HydraException) as error:  # HydraException: robot=<no such config>
         parser.exit(2, f"{parser.prog}: error: {error}\n")
-    print(f"litl.gradcheck: {config.robot.name}, observer {config.observer.kind}, controller "
-          f"{config.controller.kind}, {args.steps} steps, float64; task loss {value:.6g}")
-    print(f"{'parameters':<17} {'u':>2} {'jax.grad . u':>14} {'central diff.':>14} "
-          f"{'at eps':>7} {'rel. error':>10}")
+    print(
+        f"litl.gradcheck: {config.robot.name}, observer {config.observer.kind}, controller "
+        f"{config.controller.kind}, {args.steps} steps, float64; task loss {value:.6g}"
+    )
+    print(
+        f"{'parameters':<17} {'u':>2} {'jax.grad . u':>14} {'central diff.':>14} "
+        f"{'at eps':>7} {'rel. error':>10}"
+    )
     for c in checks:
-        print(f"{c.group:<17} {c.direction:>2} {c.analytic:>14.6e} {c.numeric:>14.6e} "
-              f"{c.eps:>7.0e} {c.relative_error:>10.2e}")
+        print(
+            f"{c.group:<17} {c.direction:>2} {c.analytic:>14.6e} {c.numeric:>14.6e} "
+            f"{c.eps:>7.0e} {c.relative_error:>10.2e}"
+        )
     worst = max(c.relative_error for c in checks)
     passed = worst <= args.rtol
-    print(f"largest relative error {worst:.2e} {'<=' if passed else '>'} rtol {args.rtol:g}: "
-          f"{'pass' if passed else 'FAIL'}")
+    print(
+        f"largest relative error {worst:.2e} {'<=' if passed else '>'} rtol {args.rtol:g}: "
+        f"{'pass' if passed else 'FAIL'}"
+    )
     sys.stdout.flush()
     return 0 if passed else 1
 

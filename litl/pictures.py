@@ -26,16 +26,24 @@ from litl.loop.replay_buffer import newest  # noqa: E402
 from litl.models.kmeans import KMeansObserver  # noqa: E402
 from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402
+from litl.sim import SimulationError  # noqa: E402
 from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
 from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
-from litl.sim import SimulationError  # noqa: E402
 from litl.viz.saliency import animate_saliency  # noqa: E402
 
 SNAPSHOTS = 6
 
 
-def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: bool = True,
-             stride: int = 10, progress: bool = False) -> list[pathlib.Path]:
+def draw_run(
+    robot,
+    config,
+    result,
+    run_dir,
+    animation: bool = True,
+    pictures: bool = True,
+    stride: int = 10,
+    progress: bool = False,
+) -> list[pathlib.Path]:
     """Write the run's pictures into `run_dir`; return the files written. With `progress`, say
     on stderr what is being drawn (the animation's rollout and the saliency take a while)."""
     run_dir = pathlib.Path(run_dir)
@@ -57,10 +65,10 @@ def draw_run(robot, config, result, run_dir, animation: bool = True, pictures: b
         plt.close(figure)
         written.append(run_dir / "robot.png")
         if chosen is not None:
-            status("pictures: the observer's representation (clusters, or snapshots, latent "
-                   "sweeps and saliency)")
-            written += _representation(robot, algorithm, state, run_dir,
-                                       stride=config.loop.snapshot_stride)
+            status(
+                "pictures: the observer's representation (clusters, or snapshots, latent sweeps and saliency)"
+            )
+            written += _representation(robot, algorithm, state, run_dir, stride=config.loop.snapshot_stride)
     if animation and recording is not None:
         status("pictures: robot.gif")
         written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
@@ -74,22 +82,26 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
         state = seed_slice(states, index)
         try:
             recording = record_rollout(
-                robot, algorithm.policy, (state.controller, state.observer), steps,
-                design=robot.design_space.to_design(state.design), stride=min(stride, steps), check=True,
-                field=algorithm.field)
+                robot,
+                algorithm.policy,
+                (state.controller, state.observer),
+                steps,
+                design=robot.design_space.to_design(state.design),
+                stride=min(stride, steps),
+                check=True,
+                field=algorithm.field,
+            )
         except SimulationError as error:
             say(f"pictures: skipping seed {config.seed + index}: {error}")
             continue
         if all(np.all(np.isfinite(a)) for a in recording):
             return index, recording
         say(f"pictures: skipping seed {config.seed + index}: its rollout is not finite")
-    say("pictures: no seed has a finite final rollout; no animation or representation "
-        "pictures were drawn")
+    say("pictures: no seed has a finite final rollout; no animation or representation pictures were drawn")
     return None, None
 
 
-def _representation(robot, algorithm, state, run_dir: pathlib.Path,
-                    stride: int) -> list[pathlib.Path]:
+def _representation(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> list[pathlib.Path]:
     # Pictures follow the observer's parameters' type: k-means clusters, an autoencoder's
     # snapshots, latent sweeps and saliency; nothing for other observers (or open loop).
     if isinstance(state.observer, KMeansObserver):
@@ -107,8 +119,7 @@ def _representation(robot, algorithm, state, run_dir: pathlib.Path,
     written = []
     for name, make in (
         ("snapshots.png", lambda path: draw_snapshots(algorithm.model, state.observer, snapshots, path)),
-        ("latent_sweeps.png", lambda path: draw_latent_sweeps(algorithm.model, state.observer,
-                                                              path=path)),
+        ("latent_sweeps.png", lambda path: draw_latent_sweeps(algorithm.model, state.observer, path=path)),
     ):
         figure = make(run_dir / name)
         plt.close(figure)
@@ -120,7 +131,15 @@ def _representation(robot, algorithm, state, run_dir: pathlib.Path,
         stride = min(stride, algorithm.steps)
         last = algorithm.steps // stride
         times = (last - len(snapshots) + 1 + np.arange(len(snapshots))) * stride * robot.config.dt
-    written.append(animate_saliency(algorithm.model, state.observer, algorithm.controller,
-                                    state.controller, snapshots, run_dir / "saliency.gif",
-                                    times=times))
+    written.append(
+        animate_saliency(
+            algorithm.model,
+            state.observer,
+            algorithm.controller,
+            state.controller,
+            snapshots,
+            run_dir / "saliency.gif",
+            times=times,
+        )
+    )
     return written

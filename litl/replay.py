@@ -39,19 +39,23 @@ def load_run_config(run_dir: pathlib.Path):
     try:
         saved = json.loads((run_dir / "run.json").read_text())
     except (OSError, json.JSONDecodeError) as error:
-        raise ReplayError(f"{run_dir} is not a litl run directory: its run.json cannot be read "
-                          f"({error}); give the directory `python -m litl` printed") from None
+        raise ReplayError(
+            f"{run_dir} is not a litl run directory: its run.json cannot be read "
+            f"({error}); give the directory `python -m litl` printed"
+        ) from None
     if "config" not in saved:
-        raise ReplayError(f"{run_dir / 'run.json'} was written by an earlier version of litl (no "
-                          f"'config'); it cannot be replayed")
+        raise ReplayError(
+            f"{run_dir / 'run.json'} was written by an earlier version of litl (no "
+            f"'config'); it cannot be replayed"
+        )
     hydra_config = run_dir / ".hydra" / "config.yaml"
-    if hydra_config.exists():        # the CLI's own record: robot, task and material included
+    if hydra_config.exists():  # the CLI's own record: robot, task and material included
         from omegaconf import OmegaConf
 
         plain = OmegaConf.to_container(OmegaConf.load(hydra_config), resolve=True)
         config = from_dict(Config, upgrade(plain))
         robot = build_robot(config)
-    else:                            # a Python API run: the robot by name, dx and material
+    else:  # a Python API run: the robot by name, dx and material
         import litl.robots
         from litl.robots import Material
 
@@ -64,14 +68,23 @@ def load_run_config(run_dir: pathlib.Path):
     found = {"robot": robot.name, "particles": robot.layout.n_particles, "dt": robot.config.dt}
     recorded = {key: saved.get(key) for key in found}
     if found != recorded:
-        raise ReplayError(f"the robot rebuilt from {run_dir} ({found}) is not the run's "
-                          f"({recorded}); was the robot's definition changed since the run?")
+        raise ReplayError(
+            f"the robot rebuilt from {run_dir} ({found}) is not the run's "
+            f"({recorded}); was the robot's definition changed since the run?"
+        )
     return robot, config
 
 
-def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
-           which: str = "final", color: str = "actuation", stride: int = 10,
-           gait: bool = False) -> dict:
+def replay(
+    run_dir,
+    seed: int | None = None,
+    steps: int | None = None,
+    out=None,
+    which: str = "final",
+    color: str = "actuation",
+    stride: int = 10,
+    gait: bool = False,
+) -> dict:
     """Simulate a saved robot again and write its animation, design picture and losses.
 
     Args:
@@ -103,8 +116,10 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     if color not in ("actuation", "stiffness"):
         raise ReplayError(f"--color {color!r}: choose actuation or stiffness")
     if not (run_dir / which).is_dir():
-        raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished "
-                          f"(resume it with the same command) or is not a litl run directory")
+        raise ReplayError(
+            f"{run_dir} holds no {which}/ parameters: the run has not finished "
+            f"(resume it with the same command) or is not a litl run directory"
+        )
     robot, config = load_run_config(run_dir)
     seeds = [config.seed + s for s in range(config.seeds)]
     seed = seeds[0] if seed is None else seed
@@ -125,8 +140,9 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     index = seeds.index(seed)
     # The run's own evaluation, batched over its seeds exactly as the run did it.
     template = stack_seeds([algorithm.init(s) for s in seeds])
-    state = template.replace(controller=saved["controller"], design=saved["design"],
-                             observer=saved["observer"])
+    state = template.replace(
+        controller=saved["controller"], design=saved["design"], observer=saved["observer"]
+    )
     losses = np.asarray(jax.jit(jax.vmap(algorithm.evaluate))(state))
     one = jax.tree.map(lambda leaf: np.asarray(leaf)[index], saved)
     steps = algorithm.steps
@@ -135,11 +151,16 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     space = robot.design_space
     design = np.asarray(one["design"])
     positions, actuation = record_rollout(
-        robot, algorithm.policy, (one["controller"], one["observer"]), steps,
-        design=space.to_design(design), stride=min(stride, steps), check=False,
-        field=algorithm.field)
-    coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" \
-        else {}
+        robot,
+        algorithm.policy,
+        (one["controller"], one["observer"]),
+        steps,
+        design=space.to_design(design),
+        stride=min(stride, steps),
+        check=False,
+        field=algorithm.field,
+    )
+    coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" else {}
     out.parent.mkdir(parents=True, exist_ok=True)
     animate_rollout(robot, positions, actuation, out, fps=20, **coloring)
     picture = out.with_name(out.stem + "_design.png")
@@ -149,17 +170,21 @@ def replay(run_dir, seed: int | None = None, steps: int | None = None, out=None,
     gait_numbers = None
     if gait:
         gait_picture = out.with_name(out.stem + "_gait.png")
-        _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt,
-                                    path=gait_picture)
+        _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt, path=gait_picture)
         files.append(str(gait_picture))
 
     recorded = _recorded_loss(run_dir, which, seed)
     summary = {
-        "run_dir": str(run_dir), "seed": seed, "which": which, "steps": steps,
+        "run_dir": str(run_dir),
+        "seed": seed,
+        "which": which,
+        "steps": steps,
         "run_steps": json.loads((run_dir / "run.json").read_text())["steps"],
-        "task_loss": float(losses[index]), "components": components,
+        "task_loss": float(losses[index]),
+        "components": components,
         "recorded_loss": recorded,
-        "design": design.tolist(), "design_bounds": list(space.bounds),
+        "design": design.tolist(),
+        "design_bounds": list(space.bounds),
         "files": files,
     }
     if gait_numbers is not None:
@@ -175,11 +200,13 @@ def _components(robot, algorithm, params, steps) -> dict:
 
     from litl.sim import make_rollout
 
-    rollout = jax.jit(make_rollout(robot.config, robot.body(), algorithm.policy, steps,
-                                   field=algorithm.field))
+    rollout = jax.jit(
+        make_rollout(robot.config, robot.body(), algorithm.policy, steps, field=algorithm.field)
+    )
     initial = robot.initial_state()
-    final, _ = rollout((params["controller"], params["observer"]),
-                       robot.design_space.to_design(params["design"]), initial)
+    final, _ = rollout(
+        (params["controller"], params["observer"]), robot.design_space.to_design(params["design"]), initial
+    )
     _, components = robot.task_loss()(initial, final)
     return {name: float(np.asarray(value)) for name, value in components.items()}
 
@@ -200,8 +227,9 @@ def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:
 
     ax = draw(robot, stiffness=design, stiffness_range=bounds, colorbar=True, show_targets=False)
     values = ", ".join(f"{v:.3g}" for v in design)
-    ax.set_title(f"{robot.name}: learned E per region [{values}] in [{bounds[0]:g}, {bounds[1]:g}]",
-                 fontsize=9)
+    ax.set_title(
+        f"{robot.name}: learned E per region [{values}] in [{bounds[0]:g}, {bounds[1]:g}]", fontsize=9
+    )
     ax.figure.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(ax.figure)
 
@@ -210,43 +238,70 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m litl.replay",
         description="Simulate a trained robot from a run directory again and write its "
-                    "animation, a picture of its learned design and its task loss.")
+        "animation, a picture of its learned design and its task loss.",
+    )
     parser.add_argument("run_dir", type=pathlib.Path, help="a finished run's directory")
     parser.add_argument("--seed", type=int, default=None, help="which seed (default: the first)")
-    parser.add_argument("--steps", type=int, default=None,
-                        help="simulation steps (default: the run's own rollout length)")
-    parser.add_argument("--out", type=pathlib.Path, default=None,
-                        help="animation file, .gif or .mp4 (default: RUN_DIR/replay/seed<N>.gif)")
-    parser.add_argument("--which", choices=("final", "best"), default="final",
-                        help="the final parameters or each seed's best rollout's")
-    parser.add_argument("--color", choices=("actuation", "stiffness"), default="actuation",
-                        help="colour particles by actuation or by the learned Young's modulus")
+    parser.add_argument(
+        "--steps", type=int, default=None, help="simulation steps (default: the run's own rollout length)"
+    )
+    parser.add_argument(
+        "--out",
+        type=pathlib.Path,
+        default=None,
+        help="animation file, .gif or .mp4 (default: RUN_DIR/replay/seed<N>.gif)",
+    )
+    parser.add_argument(
+        "--which",
+        choices=("final", "best"),
+        default="final",
+        help="the final parameters or each seed's best rollout's",
+    )
+    parser.add_argument(
+        "--color",
+        choices=("actuation", "stiffness"),
+        default="actuation",
+        help="colour particles by actuation or by the learned Young's modulus",
+    )
     parser.add_argument("--stride", type=int, default=10, help="simulation steps per frame")
-    parser.add_argument("--gait", action="store_true",
-                        help="also write <out>_gait.png and the feet's lifts and slip (walkers)")
+    parser.add_argument(
+        "--gait",
+        action="store_true",
+        help="also write <out>_gait.png and the feet's lifts and slip (walkers)",
+    )
     args = parser.parse_args(argv)
     try:
-        summary = replay(args.run_dir, args.seed, args.steps, args.out, args.which, args.color,
-                         args.stride, args.gait)
+        summary = replay(
+            args.run_dir, args.seed, args.steps, args.out, args.which, args.color, args.stride, args.gait
+        )
     except UserError as error:
         print(f"litl.replay: error: {error}", file=sys.stderr)
         return 2
     recorded = summary["recorded_loss"]
-    same = ("" if recorded is None else
-            f" (the run recorded {recorded:.6g} for these parameters)"
-            if summary["steps"] == summary["run_steps"] else
-            f" (the run recorded {recorded:.6g} at its {summary['run_steps']} steps)")
-    print(f"litl.replay: seed {summary['seed']}, {summary['steps']} steps: task loss "
-          f"{summary['task_loss'] + 0.0:.6g}{same}; wrote {', '.join(summary['files'])}")
+    same = (
+        ""
+        if recorded is None
+        else f" (the run recorded {recorded:.6g} for these parameters)"
+        if summary["steps"] == summary["run_steps"]
+        else f" (the run recorded {recorded:.6g} at its {summary['run_steps']} steps)"
+    )
+    print(
+        f"litl.replay: seed {summary['seed']}, {summary['steps']} steps: task loss "
+        f"{summary['task_loss'] + 0.0:.6g}{same}; wrote {', '.join(summary['files'])}"
+    )
     if "gait" in summary:
         gait = summary["gait"]
-        feet = "; ".join(f"{foot['travel']:.3g} / {foot['lifted_fraction']:.0%} / "
-                         f"{'-' if foot['slip'] is None else format(foot['slip'], '.2f')}"
-                         for foot in gait["feet"])
-        print(f"litl.replay: gait: the centroid went {gait['centroid_travel']:.3g} in "
-              f"{gait['duration']:.3g} s, {gait['late_speed']:.3g} per second over the second "
-              f"half; the stance grew {gait['stance_change']:.3g}; feet, back to front (travel "
-              f"/ lifted / slip): {feet}")
+        feet = "; ".join(
+            f"{foot['travel']:.3g} / {foot['lifted_fraction']:.0%} / "
+            f"{'-' if foot['slip'] is None else format(foot['slip'], '.2f')}"
+            for foot in gait["feet"]
+        )
+        print(
+            f"litl.replay: gait: the centroid went {gait['centroid_travel']:.3g} in "
+            f"{gait['duration']:.3g} s, {gait['late_speed']:.3g} per second over the second "
+            f"half; the stance grew {gait['stance_change']:.3g}; feet, back to front (travel "
+            f"/ lifted / slip): {feet}"
+        )
     return 0
 
 

@@ -7,7 +7,8 @@ import pathlib
 # the setting through the environment.
 os.environ.setdefault(
     "JAX_COMPILATION_CACHE_DIR",
-    str(pathlib.Path(__file__).resolve().parents[1] / ".pytest_cache" / "jax-compilation"))
+    str(pathlib.Path(__file__).resolve().parents[1] / ".pytest_cache" / "jax-compilation"),
+)
 
 # Every compilation is cached, the many sub-second ones included (JAX's default keeps only those
 # over a second): each subprocess (CLI runs, notebooks, the killed run) compiles them otherwise.
@@ -26,8 +27,10 @@ import jax  # noqa: E402
 import pytest  # noqa: E402
 
 jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
-jax.config.update("jax_persistent_cache_min_compile_time_secs",
-                  float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]))
+jax.config.update(
+    "jax_persistent_cache_min_compile_time_secs",
+    float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]),
+)
 
 
 @pytest.fixture

@@ -25,10 +25,18 @@ def group(name: str, finals, iterations: int = 10, retrain=None) -> Group:
         for step in range(2 * iterations):
             episode, iteration = divmod(step, iterations)
             loss = final + (1.0 if episode == 0 else 0.0) * (iterations - iteration) / iterations
-            records.append({"seed": seed, "step": step, "episode": episode,
-                            "iteration": iteration, "task_loss": loss,
-                            "retrain_change": (retrain[seed] if retrain is not None and
-                                               episode > 0 and iteration == 1 else None)})
+            records.append(
+                {
+                    "seed": seed,
+                    "step": step,
+                    "episode": episode,
+                    "iteration": iteration,
+                    "task_loss": loss,
+                    "retrain_change": (
+                        retrain[seed] if retrain is not None and episode > 0 and iteration == 1 else None
+                    ),
+                }
+            )
     return Group("biped", name, (Run(pathlib.Path(name), {"robot": "biped"}, tuple(records)),))
 
 
@@ -48,40 +56,49 @@ def test_welch_p_value_matches_a_hand_computed_one():
     assert np.isnan(welch_p_lower([1.0], [2.0, 3.0]))
 
 
-@pytest.mark.parametrize("a, b, verdict", [(LOW, HIGH, HOLDS), (HIGH, LOW, CONTRADICTED),
-                                           (SAME, LOW, NOT_RESOLVED)])
+@pytest.mark.parametrize(
+    "a, b, verdict", [(LOW, HIGH, HOLDS), (HIGH, LOW, CONTRADICTED), (SAME, LOW, NOT_RESOLVED)]
+)
 def test_beats_holds_is_contradicted_or_unresolved_by_the_seeds(a, b, verdict):
-    result = judge(claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", a),
-                                                          "kmeans": group("kmeans", b)})
+    result = judge(
+        claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", a), "kmeans": group("kmeans", b)}
+    )
     assert result.verdict == verdict
     assert result.a.mean == pytest.approx(np.mean(a))
     assert result.a.low < result.a.mean < result.a.high
 
 
-@pytest.mark.parametrize("a, b, verdict", [(SAME, LOW, HOLDS), (HIGH, LOW, CONTRADICTED),
-                                           ([-0.8, -1.2, -0.2, -1.3, -0.5], LOW, NOT_RESOLVED)])
+@pytest.mark.parametrize(
+    "a, b, verdict",
+    [(SAME, LOW, HOLDS), (HIGH, LOW, CONTRADICTED), ([-0.8, -1.2, -0.2, -1.3, -0.5], LOW, NOT_RESOLVED)],
+)
 def test_competitive_needs_no_significant_loss_and_a_close_mean(a, b, verdict):
-    result = judge(claim("4a-kmeans-competitive"), "paper",
-                   {"kmeans": group("kmeans", a), "vae": group("vae", b)})
+    result = judge(
+        claim("4a-kmeans-competitive"), "paper", {"kmeans": group("kmeans", a), "vae": group("vae", b)}
+    )
     assert result.verdict == verdict
 
 
-@pytest.mark.parametrize("changes, verdict", [
-    ([0.001, -0.002, 0.0, 0.001, -0.001], HOLDS),          # next to 1.0 progress per episode
-    ([-0.5, -0.6, -0.55, -0.45, -0.5], CONTRADICTED),
-    ([0.1, -0.4, 0.05, -0.3, 0.0], NOT_RESOLVED)])
+@pytest.mark.parametrize(
+    "changes, verdict",
+    [
+        ([0.001, -0.002, 0.0, 0.001, -0.001], HOLDS),  # next to 1.0 progress per episode
+        ([-0.5, -0.6, -0.55, -0.45, -0.5], CONTRADICTED),
+        ([0.1, -0.4, 0.05, -0.3, 0.0], NOT_RESOLVED),
+    ],
+)
 def test_retraining_claim_weighs_the_change_against_an_episodes_progress(changes, verdict):
-    result = judge(claim("table1-retraining"), "litl",
-                   {"vae": group("vae", LOW, retrain=changes)})
+    result = judge(claim("table1-retraining"), "litl", {"vae": group("vae", LOW, retrain=changes)})
     assert result.verdict == verdict
-    assert result.b.mean == pytest.approx(0.45)   # (0.9 in episode 0 + 0 in episode 1) / 2
+    assert result.b.mean == pytest.approx(0.45)  # (0.9 in episode 0 + 0 in episode 1) / 2
 
 
 def test_a_claim_without_runs_says_no_data():
     result = judge(claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", LOW)})
     assert result.verdict == NO_DATA and "kmeans" in result.rule
-    one_seed = judge(claim("4b-vae-beats-kmeans"), "litl",
-                     {"vae": group("vae", LOW[:1]), "kmeans": group("kmeans", HIGH)})
+    one_seed = judge(
+        claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", LOW[:1]), "kmeans": group("kmeans", HIGH)}
+    )
     assert one_seed.verdict == NO_DATA
 
 
@@ -93,9 +110,14 @@ def test_every_claim_names_variants_its_panel_runs():
     assert {cell.method for cell in cells()} == {"litl", "paper"}
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--panels", "fig9"], "unknown panel"), (["--methods", "mine"], "unknown method"),
-    (["--seeds", "1"], "at least 2")])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--panels", "fig9"], "unknown panel"),
+        (["--methods", "mine"], "unknown method"),
+        (["--seeds", "1"], "at least 2"),
+    ],
+)
 def test_bad_arguments_are_refused_before_anything_runs(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) as exit_info:
         main(["--out", str(tmp_path / "out"), "--scale", "smoke", *argv])
@@ -108,16 +130,16 @@ def test_a_run_of_another_size_in_out_is_refused_before_anything_runs(tmp_path, 
     out = tmp_path / "claims"
     old = out / "runs/paper/fig4b/kmeans"
     old.mkdir(parents=True)
-    (old / "run.json").write_text(json.dumps(
-        {"config": {"seeds": 2, "loop": {"episodes": 10, "iterations": 10}}}))
+    (old / "run.json").write_text(
+        json.dumps({"config": {"seeds": 2, "loop": {"episodes": 10, "iterations": 10}}})
+    )
     with pytest.raises(SystemExit) as exit_info:
         main(["--out", str(out), "--scale", "smoke", "--panels", "fig4b", "--methods", "paper"])
     assert exit_info.value.code == 2
     error = capsys.readouterr().err
     assert "was run with seeds=2 loop.episodes=10 loop.iterations=10" in error
     assert "another --out" in error
-    assert sorted(p.name for p in out.rglob("*")) == ["fig4b", "kmeans", "paper", "run.json",
-                                                      "runs"]
+    assert sorted(p.name for p in out.rglob("*")) == ["fig4b", "kmeans", "paper", "run.json", "runs"]
 
 
 def test_a_cell_stopped_by_kill_keeps_its_time_and_resuming_adds_to_it(tmp_path, monkeypatch):
@@ -125,7 +147,7 @@ def test_a_cell_stopped_by_kill_keeps_its_time_and_resuming_adds_to_it(tmp_path,
 
     parts = []
 
-    def part_of_a_run(config, run_dir):      # one record, 0.2 s; the first part gets SIGTERM
+    def part_of_a_run(config, run_dir):  # one record, 0.2 s; the first part gets SIGTERM
         parts.append(run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)
         with open(run_dir / "metrics.jsonl", "a") as file:
@@ -141,9 +163,8 @@ def test_a_cell_stopped_by_kill_keeps_its_time_and_resuming_adds_to_it(tmp_path,
         run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None)
     first = json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"]
     assert first >= 0.2
-    assert signal.getsignal(signal.SIGTERM) == handler      # the caller's handler is back
-    assert run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None) == {
-        "paper/fig4b/vae": "ran"}
+    assert signal.getsignal(signal.SIGTERM) == handler  # the caller's handler is back
+    assert run_suite(tmp_path, suite, SCALES["smoke"], 2, say=lambda *_: None) == {"paper/fig4b/vae": "ran"}
     assert json.loads((tmp_path / "timings.json").read_text())["paper/fig4b/vae"] >= first + 0.2
 
 

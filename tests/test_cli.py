@@ -7,9 +7,9 @@ installed (the README's commands install it non-editable) and the source tree ot
 
 import importlib.metadata
 import json
-import re
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -25,8 +25,14 @@ def litl_command(args, cwd, timeout=600):
         importlib.metadata.distribution("litl")
     except importlib.metadata.PackageNotFoundError:
         env["PYTHONPATH"] = str(ROOT)
-    return subprocess.run([sys.executable, "-m", "litl", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "litl", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def run_dirs(root):
@@ -42,9 +48,19 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     assert run_dir.relative_to(tmp_path).parts[:4] == ("outputs", "demo", "biped", "vae")
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert len(records) == 2 * 2 * 2 and {r["seed"] for r in records} == {0, 1}
-    for name in ("task_loss.png", "recon_loss.png", "recon_sgd.png", "learning.jsonl", "robot.png",
-                 "robot.gif", "snapshots.png",
-                 "latent_sweeps.png", "saliency.gif", "summary.md", "table1.csv"):
+    for name in (
+        "task_loss.png",
+        "recon_loss.png",
+        "recon_sgd.png",
+        "learning.jsonl",
+        "robot.png",
+        "robot.gif",
+        "snapshots.png",
+        "latent_sweeps.png",
+        "saliency.gif",
+        "summary.md",
+        "table1.csv",
+    ):
         assert (run_dir / name).stat().st_size > 0, name
     assert (run_dir / "checkpoints" / "2").is_dir() and (run_dir / "final").is_dir()
     assert "- seeds=2" in (run_dir / ".hydra" / "overrides.yaml").read_text()
@@ -55,28 +71,64 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     assert "Unable to initialize backend" not in done.stderr
     assert "[matplotlib" not in done.stderr and "INFO" not in done.stderr
     # The README's gallery script draws from such a run.
-    gallery = subprocess.run([sys.executable, str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
-                              "--demo", str(run_dir), "--out", str(tmp_path / "gallery")],
-                             capture_output=True, text=True, timeout=300)
+    gallery = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
+            "--demo",
+            str(run_dir),
+            "--out",
+            str(tmp_path / "gallery"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert gallery.returncode == 0, gallery.stderr[-3000:]
-    for name in ("robots.png", "task_loss.png", "robot.gif", "saliency.gif", "snapshots.png",
-                 "latent_sweeps.png"):
+    for name in (
+        "robots.png",
+        "task_loss.png",
+        "robot.gif",
+        "saliency.gif",
+        "snapshots.png",
+        "latent_sweeps.png",
+    ):
         assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
     # ... and replays a folder of runs (the 3D walkers') into walker_<run>.gif, demo skipped.
-    walkers = subprocess.run([sys.executable, str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
-                              "--no-demo", "--walkers", str(run_dir.parent),
-                              "--out", str(tmp_path / "walkers")],
-                             capture_output=True, text=True, timeout=300)
+    walkers = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
+            "--no-demo",
+            "--walkers",
+            str(run_dir.parent),
+            "--out",
+            str(tmp_path / "walkers"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert walkers.returncode == 0, walkers.stderr[-3000:]
     assert sorted(p.name for p in (tmp_path / "walkers").iterdir()) == [
-        f"walker_{run_dir.name}.gif", f"walker_{run_dir.name}_gait.png"]
+        f"walker_{run_dir.name}.gif",
+        f"walker_{run_dir.name}_gait.png",
+    ]
     # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss.
-    replay = subprocess.run([sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
-                            cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    replay = subprocess.run(
+        [sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert replay.returncode == 0, replay.stderr[-3000:]
     summary = json.loads((run_dir / "replay" / "seed1.json").read_text())
-    assert summary["task_loss"] == summary["recorded_loss"] == json.loads(
-        (run_dir / "final.json").read_text())[1]["task_loss"]
+    assert (
+        summary["task_loss"]
+        == summary["recorded_loss"]
+        == json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
+    )
     assert (run_dir / "replay" / "seed1.gif").stat().st_size > 1000
 
 
@@ -84,8 +136,16 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
 def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
     """`method=paper` (the whole grid, ReLU, plain velocities, features only, full gradient, no
     safeguards) runs a paper preset end to end, pictures included."""
-    done = litl_command(["experiment=fig4b_biped", "method=paper", "+scale=smoke",
-                         "output.animation=false", "output.progress=false"], tmp_path)
+    done = litl_command(
+        [
+            "experiment=fig4b_biped",
+            "method=paper",
+            "+scale=smoke",
+            "output.animation=false",
+            "output.progress=false",
+        ],
+        tmp_path,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     (fig4b,) = run_dirs(tmp_path / "outputs")
     assert fig4b.relative_to(tmp_path).parts[:2] == ("outputs", "fig4b_biped")
@@ -98,48 +158,58 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
     assert (fig4b / "snapshots.png").stat().st_size > 0
 
 
-@pytest.mark.parametrize("override, message", [
-    ("loop.episods=3", "Key 'episods' not in 'LoopConfig'"),
-    ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
-    ("robot=bipd", "Could not find 'robot/bipd'"),
-    ("observer=vea", "Could not find 'observer/vea'"),
-    ("observer.kind=vea", "observer.kind='vea': unknown observer"),
-    ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
-    ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
-    ("controller.kind=mpl", "Invalid value 'mpl', expected one of \\[mlp, sinusoid\\]"),
-    ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
-    ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
-    ("robot.dx=0.03", "must divide the domain"),
-    ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
-    ("observer.vae.field=speed", "Invalid value 'speed', expected one of \\[velocity, mass_weighted\\]"),
-    ("method=papr", "Could not find 'method/papr'"),
-    ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
-    ("experiment=fig9", "Could not find 'experiment/fig9'"),
-])
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("loop.episods=3", "Key 'episods' not in 'LoopConfig'"),
+        ("loop.episodes=abc", "Value 'abc' of type 'str' could not be converted to Integer"),
+        ("robot=bipd", "Could not find 'robot/bipd'"),
+        ("observer=vea", "Could not find 'observer/vea'"),
+        ("observer.kind=vea", "observer.kind='vea': unknown observer"),
+        ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
+        ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
+        ("controller.kind=mpl", "Invalid value 'mpl', expected one of \\[mlp, sinusoid\\]"),
+        ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
+        ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
+        ("robot.dx=0.03", "must divide the domain"),
+        ("loop.alpha=1.5", "loop.alpha=1.5: must lie in \\(0, 1\\]"),
+        ("observer.vae.field=speed", "Invalid value 'speed', expected one of \\[velocity, mass_weighted\\]"),
+        ("method=papr", "Could not find 'method/papr'"),
+        ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
+        ("experiment=fig9", "Could not find 'experiment/fig9'"),
+    ],
+)
 def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, message):
     done = litl_command([override, "+scale=smoke"], tmp_path, timeout=300)
     assert done.returncode != 0
     import re
+
     assert re.search(message, done.stderr), done.stderr[-2000:]
     assert "Traceback" not in done.stderr, done.stderr[-2000:]
-    assert not (tmp_path / "outputs").exists()        # a failed start leaves no empty directory
+    assert not (tmp_path / "outputs").exists()  # a failed start leaves no empty directory
     assert not list(tmp_path.rglob("metrics.jsonl"))
 
 
-@pytest.mark.parametrize("override, message", [
-    ("observer.vae.latent_dim=0", "^observer.vae.latent_dim=0: must be a positive integer"),
-    ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
-    ("controller.mlp.feature_scale=0",
-     "^controller.mlp.feature_scale=0.0: must be a positive number"),
-    ("loop.safeguards.update_tolerance=-0.1",
-     "^loop.safeguards.update_tolerance=-0.1: must be a number >= 0, or null"),
-    ("loop.learning.momentum_weight=-1", "^loop.learning.momentum_weight=-1.0: must be a number >= 0"),
-    ("loop.safeguards.final_learning_rate_fraction=1.5",
-     "^loop.safeguards.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]"),
-    ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
-    ("loop.buffer_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
-    ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
-])
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("observer.vae.latent_dim=0", "^observer.vae.latent_dim=0: must be a positive integer"),
+        ("loop.learning.batch_size=0", "^loop.learning.batch_size=0: must be a positive integer"),
+        ("controller.mlp.feature_scale=0", "^controller.mlp.feature_scale=0.0: must be a positive number"),
+        (
+            "loop.safeguards.update_tolerance=-0.1",
+            "^loop.safeguards.update_tolerance=-0.1: must be a number >= 0, or null",
+        ),
+        ("loop.learning.momentum_weight=-1", "^loop.learning.momentum_weight=-1.0: must be a number >= 0"),
+        (
+            "loop.safeguards.final_learning_rate_fraction=1.5",
+            "^loop.safeguards.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]",
+        ),
+        ("robot.dx=0", "dx=0.0 is not a usable grid spacing.*robot.dx=0.03125"),
+        ("loop.buffer_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
+        ("loop.replay_capacity=1", "needs at least 2 snapshots.*raise loop.buffer_capacity"),
+    ],
+)
 def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
     """The same checks as the CLI's, in process (the CLI path is covered above)."""
     from litl.app import build_robot, compose
@@ -154,8 +224,9 @@ def test_help_explains_every_group_and_hides_the_schema(tmp_path):
     done = litl_command(["--help"], tmp_path, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]
     described, options = done.stdout.split("== Options of each group ==")
-    groups = sorted(p.name for p in (ROOT / "litl" / "conf").iterdir() if p.is_dir()
-                    and p.name != "__pycache__")
+    groups = sorted(
+        p.name for p in (ROOT / "litl" / "conf").iterdir() if p.is_dir() and p.name != "__pycache__"
+    )
     assert len(groups) == 13
     for group in groups:
         # A sentence in the group list, and its options below.
@@ -170,13 +241,23 @@ def test_material_and_design_bounds_from_the_command_line(tmp_path):
     records the material (a resumed run must match it)."""
     from litl.app import compose, run_experiment
 
-    config = compose(["+scale=smoke", "observer=kmeans", "robot.material.bounds=[15,60]",
-                      "robot.material.youngs_modulus=30", "loop.episodes=1", "loop.iterations=1",
-                      "output.pictures=false", "output.animation=false", "output.progress=false"])
+    config = compose(
+        [
+            "+scale=smoke",
+            "observer=kmeans",
+            "robot.material.bounds=[15,60]",
+            "robot.material.youngs_modulus=30",
+            "loop.episodes=1",
+            "loop.iterations=1",
+            "output.pictures=false",
+            "output.animation=false",
+            "output.progress=false",
+        ]
+    )
     result = run_experiment(config, tmp_path)
     saved = json.loads((tmp_path / "run.json").read_text())
     assert saved["material"]["youngs_modulus_bounds"] == [15.0, 60.0]
-    assert saved["dt"] == 0.072 / 32 < 0.1 / 32                      # E_max 60 instead of 30
+    assert saved["dt"] == 0.072 / 32 < 0.1 / 32  # E_max 60 instead of 30
     # φ0 = 30 in each region (the metrics hold φ after one Adam step of at most 0.5)
     assert result.metrics[0]["design"] == pytest.approx([30.0] * 4, abs=0.5)
 
@@ -202,8 +283,16 @@ def test_every_experiment_preset_composes():
     from litl.app import build_robot, compose
 
     presets = sorted(p.stem for p in (ROOT / "litl" / "conf" / "experiment").glob("*.yaml"))
-    assert {"fig4a_arm", "fig4b_biped", "fig4c_elephant", "fig4d_bunny", "table1_biped",
-            "fig5_recon", "fig6_demos", "fig8_latent"} <= set(presets)
+    assert {
+        "fig4a_arm",
+        "fig4b_biped",
+        "fig4c_elephant",
+        "fig4d_bunny",
+        "table1_biped",
+        "fig5_recon",
+        "fig6_demos",
+        "fig8_latent",
+    } <= set(presets)
     for preset in presets:
         settings = compose([f"experiment={preset}", "+scale=smoke"])
         assert settings.experiment.name == preset and settings.experiment.paper_scale
@@ -212,8 +301,7 @@ def test_every_experiment_preset_composes():
 
 @pytest.mark.parametrize("launcher", ["basic", "submitit_local"])
 def test_sweeps_run_every_job_with_each_launcher(tmp_path, launcher):
-    args = ["-m", "+scale=smoke", "observer=kmeans", "seed=0,1", f"hydra/launcher={launcher}",
-            *QUIET]
+    args = ["-m", "+scale=smoke", "observer=kmeans", "seed=0,1", f"hydra/launcher={launcher}", *QUIET]
     if launcher == "submitit_local":
         args += ["hydra.launcher.timeout_min=10"]
     done = litl_command(args, tmp_path)
@@ -238,8 +326,11 @@ def test_biped_compare_preset_runs_vae_kmeans_and_the_open_loop_baseline():
 
     preset = OmegaConf.load(ROOT / "litl" / "conf" / "experiment" / "biped_compare.yaml")
     assert preset.hydra.sweeper.params.variant.split(",") == ["vae", "kmeans", "sinusoid"]
-    for variant, observer, controller in (("vae", "vae", "mlp"), ("kmeans", "kmeans", "mlp"),
-                                          ("sinusoid", "none", "sinusoid")):
+    for variant, observer, controller in (
+        ("vae", "vae", "mlp"),
+        ("kmeans", "kmeans", "mlp"),
+        ("sinusoid", "none", "sinusoid"),
+    ):
         config = compose(["experiment=biped_compare", f"variant={variant}"])
         assert (config.observer.kind, config.controller.kind) == (observer, controller)
         assert config.seeds >= 5 and config.loop.episodes * config.loop.iterations == 100
@@ -261,9 +352,20 @@ def test_robots_of_every_kind_run_at_smoke_scale_in_one_sweep(tmp_path):
     jobs at a time (k-means and one iteration keep it to ~10 s of compilation per 2D robot, ~20 s
     in 3D; the default job above runs the VAE at smoke scale)."""
     names = SWEPT_ROBOTS
-    done = litl_command(["-m", "+scale=smoke", f"robot={','.join(names)}", "observer=kmeans",
-                         "loop.episodes=1", "loop.iterations=1", "hydra/launcher=joblib",
-                         "hydra.launcher.n_jobs=2", *QUIET], tmp_path)
+    done = litl_command(
+        [
+            "-m",
+            "+scale=smoke",
+            f"robot={','.join(names)}",
+            "observer=kmeans",
+            "loop.episodes=1",
+            "loop.iterations=1",
+            "hydra/launcher=joblib",
+            "hydra.launcher.n_jobs=2",
+            *QUIET,
+        ],
+        tmp_path,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     dirs = run_dirs(tmp_path / "multirun")
     runs = [json.loads((d / "run.json").read_text()) for d in dirs]
@@ -277,9 +379,18 @@ def test_a_robot_of_your_own_runs_from_the_cli(tmp_path):
     from tests.robots.test_register import STOOL_MODULE
 
     (tmp_path / "my_robots.py").write_text(STOOL_MODULE)
-    done = litl_command(["robot.name=stool", "robot.module=my_robots", "+scale=smoke",
-                         "observer=kmeans", "loop.episodes=1", "loop.iterations=1", *QUIET],
-                        tmp_path)
+    done = litl_command(
+        [
+            "robot.name=stool",
+            "robot.module=my_robots",
+            "+scale=smoke",
+            "observer=kmeans",
+            "loop.episodes=1",
+            "loop.iterations=1",
+            *QUIET,
+        ],
+        tmp_path,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     (run_dir,) = run_dirs(tmp_path / "outputs")
     assert json.loads((run_dir / "run.json").read_text())["robot"] == "stool"

@@ -10,18 +10,31 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def test_the_docs_build_without_warnings(tmp_path):
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
-                           str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
-                          timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "WARNING" not in done.stderr, done.stderr[-3000:]
     # The report page's modules are checked by their anchors: `litl.report`'s own docstring
     # already mentions write_report in passing.
-    pages = {"simulator": ["make_rollout"], "robots": ["DesignSpace"], "observers": ["register"],
-             "loop": ["make_algorithm"], "cli": ["LoopConfig"],
-             "report": ["replay", 'id="litl.report.summary.write_report"',
-                        'id="litl.report.cli.main"', 'id="litl.pictures.draw_run"',
-                        'id="litl.viz.saliency.animate_saliency"']}
+    pages = {
+        "simulator": ["make_rollout"],
+        "robots": ["DesignSpace"],
+        "observers": ["register"],
+        "loop": ["make_algorithm"],
+        "cli": ["LoopConfig"],
+        "report": [
+            "replay",
+            'id="litl.report.summary.write_report"',
+            'id="litl.report.cli.main"',
+            'id="litl.pictures.draw_run"',
+            'id="litl.viz.saliency.animate_saliency"',
+        ],
+    }
     for page, names in pages.items():
         html = (tmp_path / "site" / "api" / page / "index.html").read_text()
         for name in names:

@@ -11,36 +11,53 @@ import warnings
 import pytest
 
 from litl.app import compose
-from litl.config import Config, MOVED_KEYS, SettingsError, flatten, translate_overrides, upgrade
+from litl.config import MOVED_KEYS, Config, SettingsError, flatten, translate_overrides, upgrade
 from litl.errors import UserError
 
 # The paper's value of every key where litl's default differs (the paper, Sec. 4 and Fig. 3:
 # the whole grid's velocities into a ReLU VAE, features only into the controller, gradients
 # through everything, Algorithm 1 with no safeguards, early stopping in epochs), and litl's.
 PAPER = {
-    "observer.vae.window": None, "observer.vae.activation": "relu",
+    "observer.vae.window": None,
+    "observer.vae.activation": "relu",
     "observer.vae.field": "velocity",
-    "controller.mlp.period": None, "controller.mlp.feature_scale": 1.0,
+    "controller.mlp.period": None,
+    "controller.mlp.feature_scale": 1.0,
     "controller.mlp.feature_gradient": "full",
-    "loop.safeguards.gradient_clip": None, "loop.safeguards.update_tolerance": None,
+    "loop.safeguards.gradient_clip": None,
+    "loop.safeguards.update_tolerance": None,
     "loop.safeguards.step_back_tolerance": None,
     "loop.safeguards.final_learning_rate_fraction": 1.0,
-    "loop.learning.max_steps": None, "loop.learning.patience_steps": None,
+    "loop.learning.max_steps": None,
+    "loop.learning.patience_steps": None,
     "loop.learning.momentum_weight": 0.0,
 }
 LITL = {
-    "observer.vae.window": 0.5, "observer.vae.activation": "elu",
+    "observer.vae.window": 0.5,
+    "observer.vae.activation": "elu",
     "observer.vae.field": "mass_weighted",
-    "controller.mlp.period": 2 * math.pi / 30, "controller.mlp.feature_scale": 0.2,
+    "controller.mlp.period": 2 * math.pi / 30,
+    "controller.mlp.feature_scale": 0.2,
     "controller.mlp.feature_gradient": "stop",
-    "loop.safeguards.gradient_clip": 1.0, "loop.safeguards.update_tolerance": 0.1,
+    "loop.safeguards.gradient_clip": 1.0,
+    "loop.safeguards.update_tolerance": 0.1,
     "loop.safeguards.step_back_tolerance": 0.1,
     "loop.safeguards.final_learning_rate_fraction": 0.1,
-    "loop.learning.max_steps": 320, "loop.learning.patience_steps": 100,
+    "loop.learning.max_steps": 320,
+    "loop.learning.patience_steps": 100,
     "loop.learning.momentum_weight": 0.3,
 }
-PRESETS = ("fig4a_arm", "fig4b_biped", "fig4c_elephant", "fig4d_bunny", "fig5_recon",
-           "fig6_demos", "fig8_latent", "table1_biped", "biped_compare")
+PRESETS = (
+    "fig4a_arm",
+    "fig4b_biped",
+    "fig4c_elephant",
+    "fig4d_bunny",
+    "fig5_recon",
+    "fig6_demos",
+    "fig8_latent",
+    "table1_biped",
+    "biped_compare",
+)
 
 
 def settings(config: Config) -> dict:
@@ -73,8 +90,7 @@ def test_every_preset_names_its_method_and_says_which(preset):
     assert f"method={expected}" in config.experiment.description
     # The command line switches a preset's method, and later single keys win over both.
     other = "paper" if expected == "litl" else "litl"
-    switched = compose([f"experiment={preset}", f"method={other}",
-                        "loop.safeguards.gradient_clip=2.0"])
+    switched = compose([f"experiment={preset}", f"method={other}", "loop.safeguards.gradient_clip=2.0"])
     assert switched.method == other and switched.loop.safeguards.gradient_clip == 2.0
     assert switched.loop.episodes == config.loop.episodes and switched.seeds == config.seeds
 
@@ -83,7 +99,9 @@ def test_moved_keys_still_work_with_a_word_on_their_new_name():
     with pytest.warns(FutureWarning) as heard:
         config = compose(["loop.replay=false", "observer.latent_dim=4"])
     assert [str(w.message).split(";")[0] for w in heard] == [
-        "loop.replay is now loop.replay_buffer", "observer.latent_dim is now observer.vae.latent_dim"]
+        "loop.replay is now loop.replay_buffer",
+        "observer.latent_dim is now observer.vae.latent_dim",
+    ]
     assert config.loop.replay_buffer is False and config.observer.vae.latent_dim == 4
     translated, messages = translate_overrides(["+loop.step_back_tolerance=0.3", "seeds=2"])
     assert translated == ["+loop.safeguards.step_back_tolerance=0.3", "seeds=2"]
@@ -92,7 +110,7 @@ def test_moved_keys_still_work_with_a_word_on_their_new_name():
         config = Config().replace(controller={"period": None, "learning_rate": 0.2})
     assert config.controller.mlp.period is None and config.controller.learning_rate == 0.2
     with warnings.catch_warnings():
-        warnings.simplefilter("error")                   # the new spelling warns of nothing
+        warnings.simplefilter("error")  # the new spelling warns of nothing
         Config().replace(loop={"safeguards": {"gradient_clip": None}})
 
 
@@ -110,10 +128,16 @@ def test_an_older_run_json_reads_under_the_new_keys():
 
 
 def test_importing_the_config_imports_neither_jax_nor_the_loop():
-    code = ("import sys, litl.config; bad = sorted(m for m in sys.modules if m == 'jax' or "
-            "m.startswith(('jax.', 'litl.loop', 'litl.sim'))); print(bad); sys.exit(bool(bad))")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    code = (
+        "import sys, litl.config; bad = sorted(m for m in sys.modules if m == 'jax' or "
+        "m.startswith(('jax.', 'litl.loop', 'litl.sim'))); print(bad); sys.exit(bool(bad))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+    )
     assert done.returncode == 0, done.stdout + done.stderr
 
 
@@ -128,8 +152,18 @@ def test_every_error_a_user_can_meet_has_one_base():
     from litl.sim.safety import SimulationError
     from litl.viz.robots import VizError
 
-    for error in (SettingsError, CheckpointError, RunDirectoryError, ReplayError, ReportError,
-                  UnknownRobotError, LayoutError, ConfigError, SimulationError, VizError):
+    for error in (
+        SettingsError,
+        CheckpointError,
+        RunDirectoryError,
+        ReplayError,
+        ReportError,
+        UnknownRobotError,
+        LayoutError,
+        ConfigError,
+        SimulationError,
+        VizError,
+    ):
         assert issubclass(error, UserError), error
     with pytest.raises(UserError, match="loop.alpha=2"):
         Config().replace(loop={"alpha": 2})

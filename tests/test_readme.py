@@ -14,8 +14,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 PAGES = [README, *sorted((ROOT / "docs" / "guide").glob("*.md"))]
 # (page, block) for every ```python block of the README and the guide pages.
-BLOCKS = [(page, block) for page in PAGES
-          for block in re.findall(r"```python\n(.*?)```", page.read_text(), re.S)]
+BLOCKS = [
+    (page, block) for page in PAGES for block in re.findall(r"```python\n(.*?)```", page.read_text(), re.S)
+]
 
 
 def run_block(first_line: str) -> dict:
@@ -35,23 +36,28 @@ ROBOTS = "import tempfile\nimport jax.numpy as jnp"
 SHAPES = "from litl.robots import Box"
 PNG = "import tempfile\nfrom importlib import resources"
 LOOP = "import tempfile\nimport litl.robots"
-MODULE = "# my_robots.py"    # tests/robots/test_register.py and tests/test_cli.py run it
-OBSERVER_MODULE = "# my_observers.py"    # tests/loop/test_observers.py runs it
+MODULE = "# my_robots.py"  # tests/robots/test_register.py and tests/test_cli.py run it
+OBSERVER_MODULE = "# my_observers.py"  # tests/loop/test_observers.py runs it
 
 
 def test_every_block_is_checked():
     assert len(PAGES) > 1, "no guide pages found under docs/guide/"
     for page, block in BLOCKS:
-        starts = [s for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP, MODULE,
-                              OBSERVER_MODULE) if block.startswith(s)]
+        starts = [
+            s
+            for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP, MODULE, OBSERVER_MODULE)
+            if block.startswith(s)
+        ]
         assert len(starts) == 1, f"this python block of {page.name} has no test:\n{block[:200]}"
 
 
 def test_readme_is_a_front_page_with_the_two_commands():
     text = README.read_text()
     assert len(text.splitlines()) <= 250, "README.md is the front page: the guide is docs/guide/"
-    for marker, command in (("<!-- run-command -->", ".venv/bin/python -m litl"),
-                            ("<!-- test-command -->", ".venv/bin/python -m pytest -q")):
+    for marker, command in (
+        ("<!-- run-command -->", ".venv/bin/python -m litl"),
+        ("<!-- test-command -->", ".venv/bin/python -m pytest -q"),
+    ):
         after = text.split(marker, 1)[1].lstrip()
         assert after.startswith("```bash\n"), marker
         assert after.split("\n")[1].endswith(command), marker
@@ -77,7 +83,7 @@ def test_simulating_a_body_walks_and_has_gradients():
 def test_observers_block_trains_and_features():
     ns = run_block(OBSERVERS)
     assert ns["trajectory"].snapshots.shape == (20, 64, 64, 2)
-    assert float(jnp.abs(ns["trajectory"].snapshots).max()) > 1e-3          # the field moves
+    assert float(jnp.abs(ns["trajectory"].snapshots).max()) > 1e-3  # the field moves
     assert ns["features"].shape == (2 * 6 * 2,)
     assert all(bool(jnp.isfinite(v)) for v in ns["losses"].values())
 
@@ -90,7 +96,7 @@ def test_robots_block_moves_and_draws():
     positions = ns["positions"]
     assert positions.shape == (40, ns["robot"].layout.n_particles, 2)
     assert np.abs(ns["actuation"]).max() > 0.5
-    assert np.abs(positions[-1] - positions[0]).max() > 0.02                 # the legs move
+    assert np.abs(positions[-1] - positions[0]).max() > 0.02  # the legs move
 
 
 def test_shapes_block_builds_a_robot():

@@ -16,8 +16,7 @@ from tests.loop.tiny import tiny_config, tiny_robot
 def finished_run(tmp_path_factory):
     """A Python API run (no .hydra record): k-means, two seeds, one episode."""
     run_dir = tmp_path_factory.mktemp("replay") / "run"
-    run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"episodes": 1}), run_dir,
-        progress=False)
+    run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"episodes": 1}), run_dir, progress=False)
     return run_dir
 
 
@@ -34,8 +33,25 @@ def test_replay_reproduces_the_recorded_final_and_best_losses(finished_run, tmp_
 
 def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_path, capsys):
     out = tmp_path / "walk.gif"
-    assert main([str(finished_run), "--seed", "1", "--steps", "60", "--out", str(out),
-                 "--color", "stiffness", "--stride", "5", "--gait"]) == 0
+    assert (
+        main(
+            [
+                str(finished_run),
+                "--seed",
+                "1",
+                "--steps",
+                "60",
+                "--out",
+                str(out),
+                "--color",
+                "stiffness",
+                "--stride",
+                "5",
+                "--gait",
+            ]
+        )
+        == 0
+    )
     summary = json.loads(out.with_suffix(".json").read_text())
     # --gait: the gait picture, its numbers in the summary and a line that says them.
     assert (tmp_path / "walk_gait.png").stat().st_size > 1000
@@ -44,21 +60,25 @@ def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_pa
     assert "per second over the second half" in capsys.readouterr().out
     assert summary["steps"] == 60 and summary["seed"] == 1
     with Image.open(out) as gif:
-        assert gif.n_frames == 12                                 # 60 steps, one frame per 5
+        assert gif.n_frames == 12  # 60 steps, one frame per 5
     design = np.asarray(Image.open(tmp_path / "walk_design.png"))
-    assert design.shape[0] > 200 and design.std() > 10            # a picture, not a blank
+    assert design.shape[0] > 200 and design.std() > 10  # a picture, not a blank
     low, high = summary["design_bounds"]
     assert all(low <= e <= high for e in summary["design"])
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--seed", "7"], "--seed 7: the run has seeds \\[0, 1\\]"),
-    (["--out", "walk.png"], "use a .gif or .mp4"),
-    (["--steps", "0"], "--steps 0: must be a positive integer"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--seed", "7"], "--seed 7: the run has seeds \\[0, 1\\]"),
+        (["--out", "walk.png"], "use a .gif or .mp4"),
+        (["--steps", "0"], "--steps 0: must be a positive integer"),
+    ],
+)
 def test_bad_requests_fail_clearly(finished_run, tmp_path, capsys, arguments, message):
     assert main([str(finished_run), *arguments]) == 2
     import re
+
     assert re.search(message, capsys.readouterr().err)
 
 

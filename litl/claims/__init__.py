@@ -15,5 +15,18 @@ from litl.claims.cli import main
 from litl.claims.suite import PANELS, SCALES, Cell, ClaimsError, Panel, cells, run_suite
 from litl.claims.verdicts import CLAIMS, Claim, Verdict, judge, welch_p_lower
 
-__all__ = ["CLAIMS", "PANELS", "SCALES", "Cell", "Claim", "ClaimsError", "Panel", "Verdict",
-           "cells", "judge", "main", "run_suite", "welch_p_lower"]
+__all__ = [
+    "CLAIMS",
+    "PANELS",
+    "SCALES",
+    "Cell",
+    "Claim",
+    "ClaimsError",
+    "Panel",
+    "Verdict",
+    "cells",
+    "judge",
+    "main",
+    "run_suite",
+    "welch_p_lower",
+]

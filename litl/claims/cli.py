@@ -10,7 +10,12 @@ import sys
 
 from litl.claims.suite import PANEL_NAMES, SCALES, cells, run_suite
 from litl.claims.tables import (
-    claims_markdown, load_groups, plot_panels, table1_markdown, verdicts, write_csv,
+    claims_markdown,
+    load_groups,
+    plot_panels,
+    table1_markdown,
+    verdicts,
+    write_csv,
 )
 from litl.errors import UserError
 
@@ -23,32 +28,51 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m litl.claims",
         description="Run every paper claim's runs (arm, biped, elephant, bunny; both methods; "
-                    "10 seeds each at demo resolution), resuming what already ran, then write "
-                    "claims.md, claims.csv, table1.md and one figure per paper panel into OUT.")
-    parser.add_argument("--out", default="claims", help="where runs and results go "
-                        "(default: ./claims; runs under OUT/runs/<method>/<panel>/<variant>)")
-    parser.add_argument("--panels", type=_names, default=PANEL_NAMES,
-                        help=f"comma-separated panels (default: all of {','.join(PANEL_NAMES)})")
-    parser.add_argument("--methods", type=_names, default=("litl", "paper"),
-                        help="comma-separated methods (default: litl,paper)")
-    parser.add_argument("--scale", choices=sorted(SCALES), default="demo",
-                        help="demo: the suite of record (default); smoke: seconds per run")
-    parser.add_argument("--seeds", type=int, default=None,
-                        help="seeds per run (default: the scale's, 10 at demo)")
-    parser.add_argument("--level", type=float, default=0.9,
-                        help="confidence level of intervals and bands (default: 0.9)")
-    parser.add_argument("--report-only", action="store_true",
-                        help="run nothing; write the results of what has finished")
-    parser.add_argument("--list", action="store_true",
-                        help="print each run's command line and whether it has finished")
+        "10 seeds each at demo resolution), resuming what already ran, then write "
+        "claims.md, claims.csv, table1.md and one figure per paper panel into OUT.",
+    )
+    parser.add_argument(
+        "--out",
+        default="claims",
+        help="where runs and results go (default: ./claims; runs under OUT/runs/<method>/<panel>/<variant>)",
+    )
+    parser.add_argument(
+        "--panels",
+        type=_names,
+        default=PANEL_NAMES,
+        help=f"comma-separated panels (default: all of {','.join(PANEL_NAMES)})",
+    )
+    parser.add_argument(
+        "--methods",
+        type=_names,
+        default=("litl", "paper"),
+        help="comma-separated methods (default: litl,paper)",
+    )
+    parser.add_argument(
+        "--scale",
+        choices=sorted(SCALES),
+        default="demo",
+        help="demo: the suite of record (default); smoke: seconds per run",
+    )
+    parser.add_argument(
+        "--seeds", type=int, default=None, help="seeds per run (default: the scale's, 10 at demo)"
+    )
+    parser.add_argument(
+        "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
+    )
+    parser.add_argument(
+        "--report-only", action="store_true", help="run nothing; write the results of what has finished"
+    )
+    parser.add_argument(
+        "--list", action="store_true", help="print each run's command line and whether it has finished"
+    )
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
-    command = " ".join(["python -m litl.claims", *map(shlex.quote, sys.argv[1:] if argv is None
-                                                        else argv)])
+    command = " ".join(["python -m litl.claims", *map(shlex.quote, sys.argv[1:] if argv is None else argv)])
     try:
         return _main(args, command)
     except (UserError, OSError) as error:
@@ -77,8 +101,10 @@ def _main(args, command: str) -> int:
     if args.list:
         for cell in suite:
             done = finished_records(cell.run_dir(out))
-            print(f"{cell.name}: {done} records  python -m litl "
-                  f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}")
+            print(
+                f"{cell.name}: {done} records  python -m litl "
+                f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}"
+            )
         return 0
     check_sizes(out, suite, config_of)
     if not args.report_only:
@@ -88,8 +114,7 @@ def _main(args, command: str) -> int:
     timings_path = out / "timings.json"
     timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
     out.mkdir(parents=True, exist_ok=True)
-    (out / "claims.md").write_text(
-        claims_markdown(results, args.level, command, unfinished, timings))
+    (out / "claims.md").write_text(claims_markdown(results, args.level, command, unfinished, timings))
     write_csv(results, out / "claims.csv")
     (out / "table1.md").write_text(table1_markdown(groups, args.methods))
     plot_panels(groups, args.methods, out, args.level)

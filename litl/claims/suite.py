@@ -65,19 +65,23 @@ def _variants(*names: str) -> tuple[Variant, ...]:
 
 
 def _sized(sizes: tuple[int, ...], *names: str) -> tuple[Variant, ...]:
-    return tuple(Variant(f"{name}_s{size}", (f"variant={name}", f"size=s{size}"))
-                 for size in sizes for name in names)
+    return tuple(
+        Variant(f"{name}_s{size}", (f"variant={name}", f"size=s{size}")) for size in sizes for name in names
+    )
 
 
 PANELS = (
-    Panel("fig4a", "Fig. 4a: arm, reach (control only)", "fig4a_arm",
-          _variants("vae", "kmeans", "vae_one_shot", "vae_no_replay")),
-    Panel("fig4b", "Fig. 4b: biped, run (co-design)", "fig4b_biped",
-          _variants("vae", "kmeans", "sinusoid")),
-    Panel("fig4c", "Fig. 4c: elephant, walk and reach",
-          "fig4c_elephant", _sized((4, 8), "vae", "kmeans")),
-    Panel("fig4d", "Fig. 4d: bunny, walk and two reaches", "fig4d_bunny",
-          _variants("vae", "kmeans", "sinusoid")),
+    Panel(
+        "fig4a",
+        "Fig. 4a: arm, reach (control only)",
+        "fig4a_arm",
+        _variants("vae", "kmeans", "vae_one_shot", "vae_no_replay"),
+    ),
+    Panel("fig4b", "Fig. 4b: biped, run (co-design)", "fig4b_biped", _variants("vae", "kmeans", "sinusoid")),
+    Panel("fig4c", "Fig. 4c: elephant, walk and reach", "fig4c_elephant", _sized((4, 8), "vae", "kmeans")),
+    Panel(
+        "fig4d", "Fig. 4d: bunny, walk and two reaches", "fig4d_bunny", _variants("vae", "kmeans", "sinusoid")
+    ),
 )
 PANEL_NAMES = tuple(panel.name for panel in PANELS)
 
@@ -123,25 +127,38 @@ class Cell:
 
     def overrides(self, scale: Scale, seeds: int) -> list[str]:
         """The command line that makes this cell: ``python -m litl <overrides>``."""
-        return [f"experiment={self.panel.experiment}", *self.variant.overrides,
-                f"method={self.method}", *scale.overrides, f"seeds={seeds}",
-                "output.pictures=false", "output.animation=false", "output.progress=false"]
+        return [
+            f"experiment={self.panel.experiment}",
+            *self.variant.overrides,
+            f"method={self.method}",
+            *scale.overrides,
+            f"seeds={seeds}",
+            "output.pictures=false",
+            "output.animation=false",
+            "output.progress=false",
+        ]
 
 
 def cells(panels=PANEL_NAMES, methods=("litl", "paper")) -> list[Cell]:
     """The suite's cells for the named panels and methods, method by method."""
     unknown = [name for name in panels if name not in PANEL_NAMES]
     if unknown:
-        raise ClaimsError(f"unknown panel(s) {unknown}; choose from {list(PANEL_NAMES)} "
-                          f"(--panels fig4a,fig4b)")
+        raise ClaimsError(
+            f"unknown panel(s) {unknown}; choose from {list(PANEL_NAMES)} (--panels fig4a,fig4b)"
+        )
     known = [m.value for m in Method]
     bad = [m for m in methods if m not in known]
     if bad:
         raise ClaimsError(f"unknown method(s) {bad}; choose from {known} (--methods litl,paper)")
     if not panels or not methods:
         raise ClaimsError("the suite is empty: name at least one panel and one method")
-    return [Cell(panel, variant, method) for method in methods
-            for panel in PANELS if panel.name in panels for variant in panel.variants]
+    return [
+        Cell(panel, variant, method)
+        for method in methods
+        for panel in PANELS
+        if panel.name in panels
+        for variant in panel.variants
+    ]
 
 
 def expected_records(config) -> int:
@@ -150,8 +167,11 @@ def expected_records(config) -> int:
 
 
 def _size(config) -> dict:
-    return {"seeds": config.seeds, "loop.episodes": config.loop.episodes,
-            "loop.iterations": config.loop.iterations}
+    return {
+        "seeds": config.seeds,
+        "loop.episodes": config.loop.episodes,
+        "loop.iterations": config.loop.iterations,
+    }
 
 
 def check_sizes(out, suite: list[Cell], config_of) -> None:
@@ -164,14 +184,18 @@ def check_sizes(out, suite: list[Cell], config_of) -> None:
             continue
         recorded = json.loads(path.read_text()).get("config", {})
         loop = recorded.get("loop", {})
-        found = {"seeds": recorded.get("seeds"), "loop.episodes": loop.get("episodes"),
-                 "loop.iterations": loop.get("iterations")}
+        found = {
+            "seeds": recorded.get("seeds"),
+            "loop.episodes": loop.get("episodes"),
+            "loop.iterations": loop.get("iterations"),
+        }
         wanted = _size(config_of(cell))
         if found != wanted:
             raise ClaimsError(
                 f"{path.parent} was run with {_settings(found)}, but this suite runs "
                 f"{_settings(wanted)}: give another --out (or move that run away) to start "
-                f"afresh, or the --seeds it was run with")
+                f"afresh, or the --seeds it was run with"
+            )
 
 
 def _settings(size: dict) -> str:
@@ -236,16 +260,18 @@ def _run_cells(out, suite: list[Cell], scale: Scale, seeds: int, say) -> dict:
         if finished_records(run_dir) >= expected_records(config):
             status[cell.name] = "done already"
             continue
-        say(f"litl.claims: [{number}/{len(suite)}] {cell.name}: python -m litl "
-            f"{' '.join(overrides)} hydra.run.dir={run_dir}")
+        say(
+            f"litl.claims: [{number}/{len(suite)}] {cell.name}: python -m litl "
+            f"{' '.join(overrides)} hydra.run.dir={run_dir}"
+        )
         # A resumed cell adds to the time its earlier parts recorded.
         before = timings.get(cell.name, 0.0) if finished_records(run_dir) else 0.0
         start = time.perf_counter()
         try:
             run_experiment(config, run_dir)
-        finally:       # an interrupted cell (Ctrl-C, SIGTERM) keeps the time it ran
+        finally:  # an interrupted cell (Ctrl-C, SIGTERM) keeps the time it ran
             timings[cell.name] = round(before + time.perf_counter() - start, 1)
             timings_path.write_text(json.dumps(timings, indent=1) + "\n")
         status[cell.name] = "ran"
-        jax.clear_caches()     # one cell's compiled programs are no use to the next
+        jax.clear_caches()  # one cell's compiled programs are no use to the next
     return status

@@ -16,8 +16,26 @@ from litl.report import figures
 from litl.report.runs import Group, load_run
 from litl.report.stats import curves, table1
 
-CSV_FIELDS = ("claim", "method", "panel", "statement", "a", "a_mean", "a_low", "a_high", "a_n",
-              "b", "b_mean", "b_low", "b_high", "b_n", "p", "verdict", "rule", "source")
+CSV_FIELDS = (
+    "claim",
+    "method",
+    "panel",
+    "statement",
+    "a",
+    "a_mean",
+    "a_low",
+    "a_high",
+    "a_n",
+    "b",
+    "b_mean",
+    "b_low",
+    "b_high",
+    "b_n",
+    "p",
+    "verdict",
+    "rule",
+    "source",
+)
 
 
 def load_groups(out, suite: list[Cell], config_of) -> tuple[dict, list[str]]:
@@ -32,15 +50,20 @@ def load_groups(out, suite: list[Cell], config_of) -> tuple[dict, list[str]]:
             continue
         run = load_run(run_dir)
         groups.setdefault((cell.method, cell.panel.name), {})[cell.variant.name] = Group(
-            run.robot, cell.variant.name, (run,))
+            run.robot, cell.variant.name, (run,)
+        )
     return groups, unfinished
 
 
 def verdicts(groups: dict, methods, level: float = 0.9) -> list[Verdict]:
     """Every claim whose panel was run, under every method asked for."""
     panels = {panel for _, panel in groups}
-    return [judge(claim, method, groups.get((method, claim.panel), {}), level)
-            for method in methods for claim in CLAIMS if claim.panel in panels]
+    return [
+        judge(claim, method, groups.get((method, claim.panel), {}), level)
+        for method in methods
+        for claim in CLAIMS
+        if claim.panel in panels
+    ]
 
 
 def _cells(estimate) -> list:
@@ -55,10 +78,21 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
         writer.writerow(CSV_FIELDS)
         for v in results:
             c = v.claim
-            row = [c.id, v.method, c.panel, c.statement, c.a, *_cells(v.a), c.b or "",
-                   *_cells(v.b), v.p, v.verdict, v.rule, c.source]
-            writer.writerow(["" if isinstance(x, float) and not math.isfinite(x) else x
-                             for x in row])
+            row = [
+                c.id,
+                v.method,
+                c.panel,
+                c.statement,
+                c.a,
+                *_cells(v.a),
+                c.b or "",
+                *_cells(v.b),
+                v.p,
+                v.verdict,
+                v.rule,
+                c.source,
+            ]
+            writer.writerow(["" if isinstance(x, float) and not math.isfinite(x) else x for x in row])
     return path
 
 
@@ -67,72 +101,104 @@ def _interval(estimate) -> str:
         return "—"
     if estimate.n < 2:
         return f"{format_number(estimate.mean)} (n={estimate.n})"
-    return (f"{format_number(estimate.mean)} [{format_number(estimate.low)}, "
-            f"{format_number(estimate.high)}] (n={estimate.n})")
+    return (
+        f"{format_number(estimate.mean)} [{format_number(estimate.low)}, "
+        f"{format_number(estimate.high)}] (n={estimate.n})"
+    )
 
 
-def claims_markdown(results: list[Verdict], level: float, command: str, unfinished: list[str],
-                    timings: dict) -> str:
-    lines = ["# The paper's claims, measured", "",
-             f"Written {datetime.date.today().isoformat()} by `{command}`.", "",
-             f"Final task loss = a seed's mean task loss over its last 10 iterations (lower is "
-             f"better); intervals are {level:.0%} Student-t intervals of the mean over seeds; p is "
-             f"the one-sided Welch p-value of the test that makes the claim hold (α = {ALPHA}). "
-             f"For Table 1, a is the change of the objective after retraining plus one step "
-             f"(negative: progress lost) and b the progress per episode.", "",
-             "| claim | method | a | a: mean [CI] | b | b: mean [CI] | p | verdict |",
-             "|---|---|---|---|---|---|---:|---|"]
+def claims_markdown(
+    results: list[Verdict], level: float, command: str, unfinished: list[str], timings: dict
+) -> str:
+    lines = [
+        "# The paper's claims, measured",
+        "",
+        f"Written {datetime.date.today().isoformat()} by `{command}`.",
+        "",
+        f"Final task loss = a seed's mean task loss over its last 10 iterations (lower is "
+        f"better); intervals are {level:.0%} Student-t intervals of the mean over seeds; p is "
+        f"the one-sided Welch p-value of the test that makes the claim hold (α = {ALPHA}). "
+        f"For Table 1, a is the change of the objective after retraining plus one step "
+        f"(negative: progress lost) and b the progress per episode.",
+        "",
+        "| claim | method | a | a: mean [CI] | b | b: mean [CI] | p | verdict |",
+        "|---|---|---|---|---|---|---:|---|",
+    ]
     for v in results:
-        lines.append(f"| {v.claim.statement} | {v.method} | {v.claim.a} | {_interval(v.a)} | "
-                     f"{v.claim.b or 'progress/episode'} | {_interval(v.b)} | "
-                     f"{format_number(v.p, '.3g')} | **{v.verdict}** |")
+        lines.append(
+            f"| {v.claim.statement} | {v.method} | {v.claim.a} | {_interval(v.a)} | "
+            f"{v.claim.b or 'progress/episode'} | {_interval(v.b)} | "
+            f"{format_number(v.p, '.3g')} | **{v.verdict}** |"
+        )
     lines += ["", "## Rules", ""]
     for claim_id, rule in dict.fromkeys((v.claim.id, v.rule) for v in results):
         lines.append(f"- `{claim_id}`: {rule}")
     lines += ["", "## Sources", ""]
     lines += [f"- `{c.id}`: {c.source}" for c in CLAIMS if any(v.claim is c for v in results)]
     if unfinished:
-        lines += ["", "## Not finished", "",
-                  "These runs have not finished (run the same command again to resume them); "
-                  "claims that need them say `no data`:", ""]
+        lines += [
+            "",
+            "## Not finished",
+            "",
+            "These runs have not finished (run the same command again to resume them); "
+            "claims that need them say `no data`:",
+            "",
+        ]
         lines += [f"- {name}" for name in unfinished]
     if timings:
         total = sum(timings.values())
-        lines += ["", "## Time", "",
-                  f"{len(timings)} runs, {total / 3600:.2f} h in all (wall time of each run's "
-                  f"last process; see timings.json)."]
+        lines += [
+            "",
+            "## Time",
+            "",
+            f"{len(timings)} runs, {total / 3600:.2f} h in all (wall time of each run's "
+            f"last process; see timings.json).",
+        ]
     return "\n".join(lines) + "\n"
 
 
 def table1_markdown(groups: dict, methods) -> str:
     """Table 1 per method from the biped's VAE runs: what retraining cost alone, and what
     remained after one step, per retraining (mean ± std over seeds), beside the paper's."""
-    lines = ["# Table 1 at demo size", "",
-             "Per retraining: `retrain_effect` (task objective before retraining minus right "
-             "after it) and `retrain_change` (minus after it plus one optimization step), mean "
-             "and sample std over seeds. Negative: progress lost. The biped's task loss is minus "
-             "the distance walked, so these are changes of distance, as in the paper.", ""]
+    lines = [
+        "# Table 1 at demo size",
+        "",
+        "Per retraining: `retrain_effect` (task objective before retraining minus right "
+        "after it) and `retrain_change` (minus after it plus one optimization step), mean "
+        "and sample std over seeds. Negative: progress lost. The biped's task loss is minus "
+        "the distance walked, so these are changes of distance, as in the paper.",
+        "",
+    ]
     for method in methods:
         group = groups.get((method, "fig4b"), {}).get("vae")
         if group is None:
             continue
         effect = {r["retrain"]: r for r in table1([group], "retrain_effect")}
         change = {r["retrain"]: r for r in table1([group], "retrain_change")}
-        lines += [f"## method={method}", "",
-                  "| retrain | retraining alone: mean | std | after one step: mean | std | n |",
-                  "|---:|---:|---:|---:|---:|---:|"]
+        lines += [
+            f"## method={method}",
+            "",
+            "| retrain | retraining alone: mean | std | after one step: mean | std | n |",
+            "|---:|---:|---:|---:|---:|---:|",
+        ]
         for retrain in sorted(set(effect) | set(change)):
             e, c = effect.get(retrain, {}), change.get(retrain, {})
             lines.append(
                 f"| {retrain} | {format_number(e.get('mean'), '.3e')} | "
                 f"{format_number(e.get('std'), '.3e')} | {format_number(c.get('mean'), '.3e')} | "
-                f"{format_number(c.get('std'), '.3e')} | {c.get('n', e.get('n', 0))} |")
+                f"{format_number(c.get('std'), '.3e')} | {c.get('n', e.get('n', 0))} |"
+            )
         changes, progress = retraining_effects(group)
-        lines += ["", f"Over all retrainings: after one step {format_number(np.nanmean(changes), '.3e')}"
-                  f" per retraining; progress per episode {format_number(np.nanmean(progress), '.3e')}.",
-                  ""]
-    lines += ["The paper (dx 1/128, 15 retrainings): means between -1.86e-2 and +3.56e-2, "
-              "standard deviations 4.3e-3 to 8.4e-2."]
+        lines += [
+            "",
+            f"Over all retrainings: after one step {format_number(np.nanmean(changes), '.3e')}"
+            f" per retraining; progress per episode {format_number(np.nanmean(progress), '.3e')}.",
+            "",
+        ]
+    lines += [
+        "The paper (dx 1/128, 15 retrainings): means between -1.86e-2 and +3.56e-2, "
+        "standard deviations 4.3e-3 to 8.4e-2."
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -140,16 +206,26 @@ def plot_panels(groups: dict, methods, out: pathlib.Path, level: float) -> list[
     """One PNG per paper panel: task loss vs iteration with bands, a subplot per method."""
     written = []
     for panel in PANELS:
-        runs = [(method, groups[(method, panel.name)]) for method in methods
-                if (method, panel.name) in groups]
+        runs = [
+            (method, groups[(method, panel.name)]) for method in methods if (method, panel.name) in groups
+        ]
         if not runs:
             continue
         colors = figures.label_colors([v.name for v in panel.variants])
-        subplots = [(f"{panel.title}\nmethod={method}",
-                     [(curve, "-", curve.label) for curve in
-                      curves([by_variant[v.name] for v in panel.variants if v.name in by_variant],
-                             "task_loss", level)])
-                    for method, by_variant in runs]
+        subplots = [
+            (
+                f"{panel.title}\nmethod={method}",
+                [
+                    (curve, "-", curve.label)
+                    for curve in curves(
+                        [by_variant[v.name] for v in panel.variants if v.name in by_variant],
+                        "task_loss",
+                        level,
+                    )
+                ],
+            )
+            for method, by_variant in runs
+        ]
         path = out / f"{panel.name}.png"
         figures.plot_panels(subplots, path, "task loss", colors, level)
         written.append(path)

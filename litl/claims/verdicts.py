@@ -57,33 +57,96 @@ class Claim:
 
 
 CLAIMS = (
-    Claim("4a-kmeans-competitive", "fig4a", "on the arm, k-means is competitive with the VAE",
-          "competitive", "kmeans", "vae", "paper, Sec. 5 (2D Arm)"),
-    Claim("4a-one-shot-fails", "fig4a",
-          "on the arm, training the observer once (one-shot) does worse than retraining it",
-          "beats", "vae", "vae_one_shot", "paper, Sec. 5 (2D Arm), Fig. 4a"),
-    Claim("4a-no-replay-fails", "fig4a",
-          "on the arm, the VAE without a replay buffer does worse than with it",
-          "beats", "vae", "vae_no_replay", "paper, Sec. 5 (2D Arm), Fig. 4a"),
-    Claim("4b-vae-beats-kmeans", "fig4b", "on the biped, the VAE beats k-means",
-          "beats", "vae", "kmeans", "paper, Fig. 4b"),
-    Claim("4b-vae-beats-open-loop", "fig4b",
-          "on the biped, the VAE's closed loop beats open-loop sinusoids",
-          "beats", "vae", "sinusoid", "litl's baseline (not in the paper)"),
-    Claim("table1-retraining", "fig4b",
-          "on the biped, one optimization step cancels retraining's backward progress",
-          "retraining", "vae", None, "paper, Table 1"),
-    Claim("4c-vae-beats-kmeans-4", "fig4c",
-          "on the elephant, the VAE beats k-means at size 4",
-          "beats", "vae_s4", "kmeans_s4", "paper, Fig. 4c"),
-    Claim("4c-vae-beats-kmeans-8", "fig4c",
-          "on the elephant, the VAE beats k-means at size 8",
-          "beats", "vae_s8", "kmeans_s8", "paper, Fig. 4c"),
-    Claim("4d-vae-beats-kmeans", "fig4d", "on the bunny, the VAE beats k-means",
-          "beats", "vae", "kmeans", "paper, Fig. 4d"),
-    Claim("4d-vae-beats-open-loop", "fig4d",
-          "on the bunny, the VAE's closed loop beats open-loop sinusoids",
-          "beats", "vae", "sinusoid", "litl's baseline (not in the paper)"),
+    Claim(
+        "4a-kmeans-competitive",
+        "fig4a",
+        "on the arm, k-means is competitive with the VAE",
+        "competitive",
+        "kmeans",
+        "vae",
+        "paper, Sec. 5 (2D Arm)",
+    ),
+    Claim(
+        "4a-one-shot-fails",
+        "fig4a",
+        "on the arm, training the observer once (one-shot) does worse than retraining it",
+        "beats",
+        "vae",
+        "vae_one_shot",
+        "paper, Sec. 5 (2D Arm), Fig. 4a",
+    ),
+    Claim(
+        "4a-no-replay-fails",
+        "fig4a",
+        "on the arm, the VAE without a replay buffer does worse than with it",
+        "beats",
+        "vae",
+        "vae_no_replay",
+        "paper, Sec. 5 (2D Arm), Fig. 4a",
+    ),
+    Claim(
+        "4b-vae-beats-kmeans",
+        "fig4b",
+        "on the biped, the VAE beats k-means",
+        "beats",
+        "vae",
+        "kmeans",
+        "paper, Fig. 4b",
+    ),
+    Claim(
+        "4b-vae-beats-open-loop",
+        "fig4b",
+        "on the biped, the VAE's closed loop beats open-loop sinusoids",
+        "beats",
+        "vae",
+        "sinusoid",
+        "litl's baseline (not in the paper)",
+    ),
+    Claim(
+        "table1-retraining",
+        "fig4b",
+        "on the biped, one optimization step cancels retraining's backward progress",
+        "retraining",
+        "vae",
+        None,
+        "paper, Table 1",
+    ),
+    Claim(
+        "4c-vae-beats-kmeans-4",
+        "fig4c",
+        "on the elephant, the VAE beats k-means at size 4",
+        "beats",
+        "vae_s4",
+        "kmeans_s4",
+        "paper, Fig. 4c",
+    ),
+    Claim(
+        "4c-vae-beats-kmeans-8",
+        "fig4c",
+        "on the elephant, the VAE beats k-means at size 8",
+        "beats",
+        "vae_s8",
+        "kmeans_s8",
+        "paper, Fig. 4c",
+    ),
+    Claim(
+        "4d-vae-beats-kmeans",
+        "fig4d",
+        "on the bunny, the VAE beats k-means",
+        "beats",
+        "vae",
+        "kmeans",
+        "paper, Fig. 4d",
+    ),
+    Claim(
+        "4d-vae-beats-open-loop",
+        "fig4d",
+        "on the bunny, the VAE's closed loop beats open-loop sinusoids",
+        "beats",
+        "vae",
+        "sinusoid",
+        "litl's baseline (not in the paper)",
+    ),
 )
 
 
@@ -151,14 +214,18 @@ def _compare(claim: Claim, a_values, b_values, level: float):
     if a.n < 2 or b.n < 2:
         return a, b, better, NO_DATA, "needs at least 2 seeds with a final task loss in each"
     if claim.kind == "beats":
-        verdict = (HOLDS if better < ALPHA else CONTRADICTED if worse < ALPHA else NOT_RESOLVED)
-        rule = (f"holds if {claim.a} is lower with one-sided Welch p < {ALPHA}; contradicted if "
-                f"it is higher with p < {ALPHA}")
+        verdict = HOLDS if better < ALPHA else CONTRADICTED if worse < ALPHA else NOT_RESOLVED
+        rule = (
+            f"holds if {claim.a} is lower with one-sided Welch p < {ALPHA}; contradicted if "
+            f"it is higher with p < {ALPHA}"
+        )
         return a, b, better, verdict, rule
     within = a.mean <= b.mean + MARGIN * abs(b.mean)
     verdict = CONTRADICTED if worse < ALPHA else HOLDS if within else NOT_RESOLVED
-    rule = (f"contradicted if {claim.a} is higher with one-sided Welch p < {ALPHA}; else holds "
-            f"if its mean is within {MARGIN:.0%} of {claim.b}'s |mean| or lower")
+    rule = (
+        f"contradicted if {claim.a} is higher with one-sided Welch p < {ALPHA}; else holds "
+        f"if its mean is within {MARGIN:.0%} of {claim.b}'s |mean| or lower"
+    )
     return a, b, worse, verdict, rule
 
 
@@ -176,34 +243,40 @@ def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
                 changes.setdefault(key, []).append(float(change))
             loss = record.get("task_loss")
             if isinstance(loss, (int, float)) and math.isfinite(loss):
-                episodes.setdefault((key[1], int(record["episode"])), {})[
-                    int(record["iteration"])] = float(loss)
+                episodes.setdefault((key[1], int(record["episode"])), {})[int(record["iteration"])] = float(
+                    loss
+                )
         for (seed, _), losses in episodes.items():
             if len(losses) > 1:
-                progress.setdefault((index, seed), []).append(
-                    losses[min(losses)] - losses[max(losses)])
+                progress.setdefault((index, seed), []).append(losses[min(losses)] - losses[max(losses)])
     keys = sorted(set(changes) | set(progress))
     mean = lambda values: float(np.mean(values)) if values else math.nan  # noqa: E731
-    return (np.array([mean(changes.get(k, [])) for k in keys]),
-            np.array([mean(progress.get(k, [])) for k in keys]))
+    return (
+        np.array([mean(changes.get(k, [])) for k in keys]),
+        np.array([mean(progress.get(k, [])) for k in keys]),
+    )
 
 
 def _retraining(claim: Claim, group: Group, level: float):
     change_values, progress_values = retraining_effects(group)
     change, progress = estimate(change_values, level), estimate(progress_values, level)
-    rule = (f"holds if the {level:.0%} interval of the mean change lies above -{MARGIN:g} x the "
-            f"mean progress per episode; contradicted if it lies below; else not resolved")
+    rule = (
+        f"holds if the {level:.0%} interval of the mean change lies above -{MARGIN:g} x the "
+        f"mean progress per episode; contradicted if it lies below; else not resolved"
+    )
     if change.n < 2 or not math.isfinite(progress.mean):
         return change, progress, math.nan, NO_DATA, "needs retrainings in at least 2 seeds"
     threshold = -MARGIN * max(progress.mean, 0.0)
-    verdict = (HOLDS if change.low > threshold else CONTRADICTED if change.high < threshold
-               else NOT_RESOLVED)
+    verdict = HOLDS if change.low > threshold else CONTRADICTED if change.high < threshold else NOT_RESOLVED
     # The p-value of "the mean change is above the threshold" (one-sample, one-sided).
     from scipy.stats import ttest_1samp
 
     finite = change_values[np.isfinite(change_values)]
-    p = (float(ttest_1samp(finite, threshold, alternative="greater").pvalue)
-         if np.ptp(finite) > 0 else math.nan)
+    p = (
+        float(ttest_1samp(finite, threshold, alternative="greater").pvalue)
+        if np.ptp(finite) > 0
+        else math.nan
+    )
     return change, progress, p, verdict, rule
 
 
@@ -211,11 +284,11 @@ def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.
     """The verdict on `claim` from `groups` ({variant name: its runs}) of one method."""
     missing = [name for name in (claim.a, claim.b) if name is not None and name not in groups]
     if missing:
-        return Verdict(claim, method, None, None, math.nan, NO_DATA,
-                       f"no finished runs of {', '.join(missing)}")
+        return Verdict(
+            claim, method, None, None, math.nan, NO_DATA, f"no finished runs of {', '.join(missing)}"
+        )
     if claim.kind == "retraining":
         result = _retraining(claim, groups[claim.a], level)
     else:
-        result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]),
-                          level)
+        result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]), level)
     return Verdict(claim, method, *result)

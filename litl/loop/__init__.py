@@ -8,18 +8,40 @@ Observers (`litl.loop.observers`) are an interface of pure functions with a regi
 """
 
 from litl.loop.algorithm import Algorithm, LoopState, make_algorithm, seed_slice, stack_seeds
-from litl.loop.observers import Learner, Observer
 from litl.loop.learning import (
-    LearningStats, Split, fit_scale_masked, make_learning_phase, random_split,
+    LearningStats,
+    Split,
+    fit_scale_masked,
+    make_learning_phase,
+    random_split,
     soft_update,
 )
+from litl.loop.observers import Learner, Observer
 from litl.loop.replay_buffer import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
 from litl.loop.run import RunDirectoryError, RunResult, load_final, run
 
 __all__ = [
-    "Algorithm", "Learner", "LearningStats",
-    "LoopState", "Observer", "ReplayBuffer", "RunDirectoryError", "RunResult", "Split", "add",
-    "clear", "fit_scale_masked", "load_final", "make_algorithm", "make_learning_phase",
-    "random_split", "replace_with", "run", "seed_slice", "soft_update", "stack_seeds",
-    "valid_fields", "valid_mask",
+    "Algorithm",
+    "Learner",
+    "LearningStats",
+    "LoopState",
+    "Observer",
+    "ReplayBuffer",
+    "RunDirectoryError",
+    "RunResult",
+    "Split",
+    "add",
+    "clear",
+    "fit_scale_masked",
+    "load_final",
+    "make_algorithm",
+    "make_learning_phase",
+    "random_split",
+    "replace_with",
+    "run",
+    "seed_slice",
+    "soft_update",
+    "stack_seeds",
+    "valid_fields",
+    "valid_mask",
 ]

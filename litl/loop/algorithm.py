@@ -31,31 +31,35 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import optax
 from flax import struct
 
-from litl.loop import observers
 from litl.config import Config, ControllerKind, FeatureGradient, GridField, Schedule, SettingsError
+from litl.loop import observers
 from litl.loop.learning import LearningStats, soft_update
 from litl.loop.observers import Observer
 from litl.loop.replay_buffer import ReplayBuffer, add, replace_with
 from litl.models.controller import MLPController
 from litl.models.open_loop import SinusoidController
-from litl.robots.robot import Robot
 from litl.models.window import Window
+from litl.robots.robot import Robot
 from litl.sim import make_rollout
-from litl.sim.memory import default_budget_bytes
 from litl.sim.fields import full_cell_mass, grid_velocity, mass_weighted_velocity
+from litl.sim.memory import default_budget_bytes
 from litl.sim.rollout import centroid
 
-
 # Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
-SKIP_REASONS = {1: "particles_escaped", 2: "simulation_nonfinite", 3: "loss_nonfinite",
-                4: "gradient_nonfinite"}
+SKIP_REASONS = {
+    1: "particles_escaped",
+    2: "simulation_nonfinite",
+    3: "loss_nonfinite",
+    4: "gradient_nonfinite",
+}
 
 
 @struct.dataclass
@@ -142,8 +146,8 @@ def skip_reason(health, total, gradient_norm) -> jnp.ndarray:
     # The earlier failure is the cause (particles outside the grid turn to NaN a step later).
     escaped_first = (escaped >= 0) & ((nonfinite < 0) | (escaped < nonfinite))
     return jnp.select(
-        [escaped_first, nonfinite >= 0, ~jnp.isfinite(total), ~jnp.isfinite(gradient_norm)],
-        [1, 2, 3, 4], 0).astype(jnp.int32)
+        [escaped_first, nonfinite >= 0, ~jnp.isfinite(total), ~jnp.isfinite(gradient_norm)], [1, 2, 3, 4], 0
+    ).astype(jnp.int32)
 
 
 def keep_if(condition, new, old):
@@ -205,12 +209,20 @@ class Algorithm:
 def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
-    return LearningStats(recon_loss_train=nan, recon_loss_val=nan, recon_explained=nan,
-                         active_units=zero, velocity_r2=jnp.full((dim,), jnp.nan, dtype),
-                         kl=nan, val_loss=nan,
-                         epochs_used=zero, best_epoch=zero,
-                         val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
-                         steps_per_epoch=zero, update_accepted=jnp.ones((), bool))
+    return LearningStats(
+        recon_loss_train=nan,
+        recon_loss_val=nan,
+        recon_explained=nan,
+        active_units=zero,
+        velocity_r2=jnp.full((dim,), jnp.nan, dtype),
+        kl=nan,
+        val_loss=nan,
+        epochs_used=zero,
+        best_epoch=zero,
+        val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
+        steps_per_epoch=zero,
+        update_accepted=jnp.ones((), bool),
+    )
 
 
 def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
@@ -227,34 +239,52 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     scene = robot.scene(dtype)
     observer = observers.make(config.observer.kind, robot, config, scene.config, dtype)
     if on_epoch is not None and observer.learner is not None:
-        observer = dataclasses.replace(observer,
-                                       learner=observer.learner.reporting_epochs(on_epoch))
+        observer = dataclasses.replace(observer, learner=observer.learner.reporting_epochs(on_epoch))
     schedule = "fixed" if observer.learner is None else config.loop.schedule.value
     stride = min(config.loop.snapshot_stride, steps)
     _check_learning_data(config.loop, observer, schedule, steps, stride)
     every = config.sim.checkpoint_every
     if isinstance(every, int) and every % stride:
-        raise SettingsError(f"sim.checkpoint_every={every} must be a multiple of the snapshot "
-                            f"stride, {stride} (loop.snapshot_stride); or auto, or null",
-                            "sim.checkpoint_every")
-    pieces = _Pieces(robot=robot, config=config, dtype=dtype, steps=steps, stride=stride,
-                     scene=scene, observer=observer, schedule=schedule,
-                     controller=_make_controller(robot, config.controller))
-    return Algorithm(init=pieces.init, bootstrap=pieces.bootstrap, fill=pieces.fill,
-                     optimize=pieces.optimize,
-                     learn=pieces.learn, learn_seeds=pieces.learn_seeds, evaluate=pieces.evaluate, steps=steps,
-                     observer=observer, schedule=schedule, policy=pieces.policy,
-                     controller=pieces.controller, field=pieces.field,
-                     simulate=pieces.simulate,
-                     checkpoint_plan=lambda: pieces.rollout.plan)
+        raise SettingsError(
+            f"sim.checkpoint_every={every} must be a multiple of the snapshot "
+            f"stride, {stride} (loop.snapshot_stride); or auto, or null",
+            "sim.checkpoint_every",
+        )
+    pieces = _Pieces(
+        robot=robot,
+        config=config,
+        dtype=dtype,
+        steps=steps,
+        stride=stride,
+        scene=scene,
+        observer=observer,
+        schedule=schedule,
+        controller=_make_controller(robot, config.controller),
+    )
+    return Algorithm(
+        init=pieces.init,
+        bootstrap=pieces.bootstrap,
+        fill=pieces.fill,
+        optimize=pieces.optimize,
+        learn=pieces.learn,
+        learn_seeds=pieces.learn_seeds,
+        evaluate=pieces.evaluate,
+        steps=steps,
+        observer=observer,
+        schedule=schedule,
+        policy=pieces.policy,
+        controller=pieces.controller,
+        field=pieces.field,
+        simulate=pieces.simulate,
+        checkpoint_plan=lambda: pieces.rollout.plan,
+    )
 
 
 def _make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
     if settings.kind == ControllerKind.sinusoid:
         return SinusoidController(robot.n_actuators, omega=settings.sinusoid.omega)
     mlp = settings.mlp
-    return MLPController(robot.n_actuators, mlp.widths, period=mlp.period,
-                         feature_scale=mlp.feature_scale)
+    return MLPController(robot.n_actuators, mlp.widths, period=mlp.period, feature_scale=mlp.feature_scale)
 
 
 def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, stride: int):
@@ -271,13 +301,13 @@ def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, st
             f"{steps // stride} snapshot(s) per rollout of {steps} steps every "
             f"loop.snapshot_stride={loop.snapshot_stride}, "
             f"loop.replay_buffer={loop.replay_buffer}); raise loop.buffer_capacity or lower "
-            f"loop.snapshot_stride")
+            f"loop.snapshot_stride"
+        )
 
 
 def _optimizer(learning_rate: float, clip: float | None) -> optax.GradientTransformation:
     """Adam, after clipping the gradient's global norm (None: no clipping)."""
-    return optax.chain(*([optax.clip_by_global_norm(clip)] if clip else []),
-                       optax.adam(learning_rate))
+    return optax.chain(*([optax.clip_by_global_norm(clip)] if clip else []), optax.adam(learning_rate))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -317,8 +347,7 @@ class _Pieces:
     def policy(self, params, state, grid_velocity):
         """Actuation from the observer's features of the grid (and the clock)."""
         controller_params, observer_params = params
-        features = self.observer.features(jax.lax.stop_gradient(observer_params), state,
-                                          grid_velocity)
+        features = self.observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
         if self.config.controller.mlp.feature_gradient == FeatureGradient.stop:
             features = jax.lax.stop_gradient(features)
         time = state.step.astype(self.dtype) * self.scene.config.dt
@@ -339,24 +368,34 @@ class _Pieces:
         budget = sim.budget_bytes(seeds)
         if budget is None:
             budget = default_budget_bytes() // seeds
-        return make_rollout(self.scene.config, self.scene.body, self.policy, self.steps,
-                            snapshot_stride=self.stride, observe=centroid, field=self.field,
-                            checkpoint_every=sim.checkpoint_every, memory_budget=budget)
+        return make_rollout(
+            self.scene.config,
+            self.scene.body,
+            self.policy,
+            self.steps,
+            snapshot_stride=self.stride,
+            observe=centroid,
+            field=self.field,
+            checkpoint_every=sim.checkpoint_every,
+            memory_budget=budget,
+        )
 
     def simulate(self, controller_params, design, observer, initial=None):
         """(task loss, (its components, the trajectory)) of one rollout from the robot's initial
         state, or from `initial` (a `SimState` like it, e.g. with other velocities)."""
         initial = self.scene.state if initial is None else initial
-        final, trajectory = self.rollout((controller_params, observer),
-                                         self.robot.design_space.to_design(design), initial)
+        final, trajectory = self.rollout(
+            (controller_params, observer), self.robot.design_space.to_design(design), initial
+        )
         total, components = self.robot.task_loss()(initial, final)
         if self.learner is not None and not self.window.whole_grid:
             # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
             # with the state after that step: crop both around that state's centroid.
             stride = self.stride
-            centres = trajectory.observations[stride - 1::stride][:trajectory.snapshots.shape[0]]
+            centres = trajectory.observations[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
             trajectory = trajectory.replace(
-                snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres))
+                snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres)
+            )
         return total, (components, trajectory)
 
     def snapshot_velocities(self, trajectory):
@@ -366,7 +405,7 @@ class _Pieces:
         centres = jnp.concatenate([centroid(self.scene.state)[None], trajectory.observations])
         velocity = (centres[1:] - centres[:-1]) / self.scene.config.dt
         stride = self.stride
-        return velocity[stride - 1::stride][:trajectory.snapshots.shape[0]]
+        return velocity[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
 
     def init(self, seed: int) -> LoopState:
         """Random θ and Θ for `seed`, φ0, optimizer states, an empty buffer."""
@@ -374,11 +413,9 @@ class _Pieces:
         key = jax.random.key(seed)
         key, controller_key, observer_key = jax.random.split(key, 3)
         features = jnp.zeros((observer.n_features,), dtype)
-        controller_params = self.controller.init(controller_key, features,
-                                                 time=jnp.zeros((), dtype))
+        controller_params = self.controller.init(controller_key, features, time=jnp.zeros((), dtype))
         observer_params = observer.init(observer_key, seed)
-        observer_optimizer = (self.learner.optimizer_init(observer_params)
-                              if self.learner is not None else ())
+        observer_optimizer = self.learner.optimizer_init(observer_params) if self.learner is not None else ()
         design = self.robot.design_space.initial(dtype)
         dim = self.scene.config.dim
         return LoopState(
@@ -388,19 +425,26 @@ class _Pieces:
             design_optimizer=self.design_adam.init(design),
             observer=observer_params,
             observer_optimizer=observer_optimizer,
-            buffer=ReplayBuffer.empty(self.config.loop.buffer_capacity, self.window.shape, dim,
-                                      dtype),
+            buffer=ReplayBuffer.empty(self.config.loop.buffer_capacity, self.window.shape, dim, dtype),
             key=jax.random.key_data(key),
             stats=empty_stats(dtype, self.config.loop.learning.max_epochs, dim),
-            best=Best(task_loss=jnp.full((), jnp.inf, dtype), step=jnp.full((), -1, jnp.int32),
-                      controller=controller_params, design=design, observer=observer_params),
-            anchor=Anchor(controller=controller_params, design=design,
-                          controller_optimizer=self.controller_adam.init(controller_params),
-                          design_optimizer=self.design_adam.init(design),
-                          controller_grad=jax.tree.map(jnp.zeros_like, controller_params),
-                          design_grad=jnp.zeros_like(design),
-                          task_loss=jnp.full((), jnp.inf, dtype),
-                          step_scale=jnp.ones((), dtype)),
+            best=Best(
+                task_loss=jnp.full((), jnp.inf, dtype),
+                step=jnp.full((), -1, jnp.int32),
+                controller=controller_params,
+                design=design,
+                observer=observer_params,
+            ),
+            anchor=Anchor(
+                controller=controller_params,
+                design=design,
+                controller_optimizer=self.controller_adam.init(controller_params),
+                design_optimizer=self.design_adam.init(design),
+                controller_grad=jax.tree.map(jnp.zeros_like, controller_params),
+                design_grad=jnp.zeros_like(design),
+                task_loss=jnp.full((), jnp.inf, dtype),
+                step_scale=jnp.ones((), dtype),
+            ),
             iteration=jnp.zeros((), jnp.int32),
             consecutive_skips=jnp.zeros((), jnp.int32),
         )
@@ -428,13 +472,14 @@ class _Pieces:
         `at_once` seeds at a time (vmapped within a group, the groups one after another), the
         rest vmapped. A vmapped phase runs until its slowest seed stops; one seed at a time
         stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
-        if at_once >= jax.tree.leaves(states)[0].shape[0]:     # every seed together: the plain vmap
+        if at_once >= jax.tree.leaves(states)[0].shape[0]:  # every seed together: the plain vmap
             return jax.vmap(lambda state: self.learn(state, first))(states)
         if self.learner is None:
             return states, states.stats
         states, keys = jax.vmap(self.split_key)(states)
-        trained, stats = jax.lax.map(lambda seed: self.learner.phase(*seed),
-                                     (states.observer, states.buffer, keys), batch_size=at_once)
+        trained, stats = jax.lax.map(
+            lambda seed: self.learner.phase(*seed), (states.observer, states.buffer, keys), batch_size=at_once
+        )
         return jax.vmap(lambda *seed: self.adopt(*seed, first))(states, trained, stats)
 
     def adopt(self, state: LoopState, trained, stats: LearningStats, first=False):
@@ -460,17 +505,20 @@ class _Pieces:
         observer (and a finite one)."""
         before, _ = self.simulate(state.controller, state.design, state.observer)
         after, _ = self.simulate(state.controller, state.design, updated)
-        return jnp.isfinite(after) & (~jnp.isfinite(before) |
-                                      (after <= before + tolerance * jnp.abs(before)))
+        return jnp.isfinite(after) & (~jnp.isfinite(before) | (after <= before + tolerance * jnp.abs(before)))
 
     def fill(self, state: LoopState):
         """One rollout of the current controller fills the buffer (the bootstrap's first half)."""
         total, (_, trajectory) = self.simulate(state.controller, state.design, state.observer)
         # A failed rollout's snapshots never enter the buffer.
         healthy = skip_reason(trajectory.health, total, jnp.zeros((), self.dtype)) == 0
-        return state.replace(buffer=keep_if(healthy, add(state.buffer, trajectory.snapshots,
-                                                         self.snapshot_velocities(trajectory)),
-                                            state.buffer))
+        return state.replace(
+            buffer=keep_if(
+                healthy,
+                add(state.buffer, trajectory.snapshots, self.snapshot_velocities(trajectory)),
+                state.buffer,
+            )
+        )
 
     def bootstrap(self, state: LoopState):
         """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
@@ -480,33 +528,45 @@ class _Pieces:
         """One optimization iteration (see the module docstring); returns (state, metrics)."""
         value_and_grad = jax.value_and_grad(self.simulate, argnums=(0, 1), has_aux=True)
         (total, (components, trajectory)), (controller_grad, design_grad) = value_and_grad(
-            state.controller, state.design, state.observer)
+            state.controller, state.design, state.observer
+        )
         controller_grad_norm = optax.tree.norm(controller_grad)
         design_grad_norm = optax.tree.norm(design_grad)
         reason = skip_reason(trajectory.health, total, controller_grad_norm + design_grad_norm)
         healthy = reason == 0
         before = state
         improved = healthy & (total < state.best.task_loss)
-        best = keep_if(improved, Best(task_loss=total, step=state.iteration,
-                                      controller=state.controller, design=state.design,
-                                      observer=state.observer), state.best)
+        best = keep_if(
+            improved,
+            Best(
+                task_loss=total,
+                step=state.iteration,
+                controller=state.controller,
+                design=state.design,
+                observer=state.observer,
+            ),
+            state.best,
+        )
         step_back = healthy & self.falls_back(state.anchor, total)
         state = self.take_step(state, total, controller_grad, design_grad, step_back)
         snapshots = trajectory.snapshots
         keep = add if self.config.loop.replay_buffer else replace_with
-        state = state.replace(buffer=keep(state.buffer, snapshots,
-                                          self.snapshot_velocities(trajectory)))
+        state = state.replace(buffer=keep(state.buffer, snapshots, self.snapshot_velocities(trajectory)))
         recon = jnp.full((), jnp.nan, self.dtype)
         if self.schedule == Schedule.simultaneous:
             state, key = self.split_key(state)
             observer_params, observer_optimizer, losses = self.learner.step(
-                state.observer, state.observer_optimizer, snapshots, key)
+                state.observer, state.observer_optimizer, snapshots, key
+            )
             state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
             recon = losses["recon"]
         # A failed iteration changes nothing but the key and the counters (and says why).
         state = keep_if(healthy, state, before).replace(
-            key=state.key, best=best, iteration=state.iteration + 1,
-            consecutive_skips=jnp.where(healthy, 0, state.consecutive_skips + 1))
+            key=state.key,
+            best=best,
+            iteration=state.iteration + 1,
+            consecutive_skips=jnp.where(healthy, 0, state.consecutive_skips + 1),
+        )
         metrics = {
             "task_loss": total,
             **{f"task/{name}": value for name, value in components.items()},
@@ -532,27 +592,38 @@ class _Pieces:
         if tolerance is None:
             return jnp.zeros((), bool)
         limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
-        return (jnp.isfinite(anchor.task_loss) & (total > limit)
-                & (anchor.step_scale > 0.5**MAX_STEP_BACKS))
+        return jnp.isfinite(anchor.task_loss) & (total > limit) & (anchor.step_scale > 0.5**MAX_STEP_BACKS)
 
-    def take_step(self, state: LoopState, total, controller_grad, design_grad,
-                  step_back) -> LoopState:
+    def take_step(self, state: LoopState, total, controller_grad, design_grad, step_back) -> LoopState:
         """The iteration's parameter update. Normally a full Adam step from the current θ, φ,
         which become the anchor; on a step back (`step_back`), the anchor's step again at half
         its last size, from the anchor's parameters, gradients and optimizer states."""
         anchor = state.anchor
-        accepted = Anchor(controller=state.controller, design=state.design,
-                          controller_optimizer=state.controller_optimizer,
-                          design_optimizer=state.design_optimizer,
-                          controller_grad=controller_grad, design_grad=design_grad,
-                          task_loss=total, step_scale=jnp.ones_like(anchor.step_scale))
+        accepted = Anchor(
+            controller=state.controller,
+            design=state.design,
+            controller_optimizer=state.controller_optimizer,
+            design_optimizer=state.design_optimizer,
+            controller_grad=controller_grad,
+            design_grad=design_grad,
+            task_loss=total,
+            step_scale=jnp.ones_like(anchor.step_scale),
+        )
         retried = anchor.replace(step_scale=anchor.step_scale / 2)
         anchor = keep_if(step_back, retried, accepted)
-        state = state.replace(controller=anchor.controller, design=anchor.design,
-                              controller_optimizer=anchor.controller_optimizer,
-                              design_optimizer=anchor.design_optimizer, anchor=anchor)
-        return self.step_parameters(state, anchor.controller_grad, anchor.design_grad,
-                                    anchor.step_scale * self.step_size_factor(state.iteration))
+        state = state.replace(
+            controller=anchor.controller,
+            design=anchor.design,
+            controller_optimizer=anchor.controller_optimizer,
+            design_optimizer=anchor.design_optimizer,
+            anchor=anchor,
+        )
+        return self.step_parameters(
+            state,
+            anchor.controller_grad,
+            anchor.design_grad,
+            anchor.step_scale * self.step_size_factor(state.iteration),
+        )
 
     def step_size_factor(self, iteration) -> jnp.ndarray:
         """() the fraction of θ's and φ's configured Adam step sizes at this global iteration:
@@ -562,23 +633,24 @@ class _Pieces:
         final = loop.safeguards.final_learning_rate_fraction
         total = loop.episodes * loop.iterations
         progress = jnp.clip(jnp.asarray(iteration, self.dtype) / max(total - 1, 1), 0.0, 1.0)
-        return jnp.asarray(final + (1.0 - final) * 0.5 * (1.0 + jnp.cos(jnp.pi * progress)),
-                           self.dtype)
+        return jnp.asarray(final + (1.0 - final) * 0.5 * (1.0 + jnp.cos(jnp.pi * progress)), self.dtype)
 
-    def step_parameters(self, state: LoopState, controller_grad, design_grad,
-                        scale=1.0) -> LoopState:
+    def step_parameters(self, state: LoopState, controller_grad, design_grad, scale=1.0) -> LoopState:
         """Adam on θ, and on φ then its projection into the bounds (unless control only); the
         updates multiplied by `scale`."""
         shrink = lambda updates: jax.tree.map(lambda u: u * scale, updates)
         updates, controller_optimizer = self.controller_adam.update(
-            controller_grad, state.controller_optimizer, state.controller)
-        state = state.replace(controller=optax.apply_updates(state.controller, shrink(updates)),
-                              controller_optimizer=controller_optimizer)
+            controller_grad, state.controller_optimizer, state.controller
+        )
+        state = state.replace(
+            controller=optax.apply_updates(state.controller, shrink(updates)),
+            controller_optimizer=controller_optimizer,
+        )
         if self.config.loop.codesign:
             updates, design_optimizer = self.design_adam.update(
-                design_grad, state.design_optimizer, state.design)
-            design = self.robot.design_space.project(
-                optax.apply_updates(state.design, shrink(updates)))
+                design_grad, state.design_optimizer, state.design
+            )
+            design = self.robot.design_space.project(optax.apply_updates(state.design, shrink(updates)))
             state = state.replace(design=design, design_optimizer=design_optimizer)
         return state
 

@@ -9,13 +9,13 @@ damaged later (a truncated file, lost metadata) is skipped on restore in favour 
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import pathlib
 
 import jax
 import numpy as np
 import orbax.checkpoint as ocp
 
+from litl.errors import UserError
 from litl.loop.progress import say
 
 
@@ -28,8 +28,10 @@ class Checkpoints:
 
     def __init__(self, directory: pathlib.Path, keep: int = 2):
         if keep < 2:
-            raise ValueError(f"keep at least two checkpoints (a damaged newest one falls back to "
-                             f"the previous), got {keep!r}")
+            raise ValueError(
+                f"keep at least two checkpoints (a damaged newest one falls back to "
+                f"the previous), got {keep!r}"
+            )
         options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False)
         self.directory = pathlib.Path(directory).absolute()
         self.manager = ocp.CheckpointManager(self.directory, options=options)
@@ -53,30 +55,36 @@ class Checkpoints:
         Raises:
           CheckpointError: no checkpoint restores; the message says what to do.
         """
-        template = {"state": template_state,
-                    "counters": {k: np.asarray(v) for k, v in template_counters.items()}}
+        template = {
+            "state": template_state,
+            "counters": {k: np.asarray(v) for k, v in template_counters.items()},
+        }
         abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, template)
         failures = []
         for step in sorted(self.manager.all_steps(), reverse=True):
             try:
                 item = self.manager.restore(step, args=ocp.args.StandardRestore(abstract))
             except Exception as error:  # orbax/tensorstore raise many kinds for damaged files
-                reason = str(error).strip().splitlines()[0][:200] if str(error).strip() else \
-                    type(error).__name__
+                reason = (
+                    str(error).strip().splitlines()[0][:200] if str(error).strip() else type(error).__name__
+                )
                 failures.append((step, reason))
                 continue
             for bad, reason in failures:
                 aside = self._free_name(f"damaged-{bad}")
                 (self.directory / str(bad)).rename(aside)
-                say(f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
-                    f"moved it to {aside} and resumed from checkpoint {step}")
+                say(
+                    f"litl: checkpoint {bad} (episodes done) could not be restored ({reason}); "
+                    f"moved it to {aside} and resumed from checkpoint {step}"
+                )
             if failures:
                 self.manager.reload()
             return item["state"], item["counters"]
         listing = "; ".join(f"{step}: {reason}" for step, reason in failures)
         raise CheckpointError(
             f"no checkpoint in {self.directory} can be restored ({listing}). Start a new run "
-            f"directory, or move {self.directory} away to start this run over.")
+            f"directory, or move {self.directory} away to start this run over."
+        )
 
     def close(self):
         self.manager.close()

@@ -29,8 +29,7 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
 from __future__ import annotations
 
 import dataclasses
-import math
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -41,7 +40,12 @@ from flax import struct
 from litl.config import LearningConfig
 from litl.loop.replay_buffer import ReplayBuffer
 from litl.models.vae import (
-    AutoencoderParams, ConvAutoencoder, active_units, explained_variance, fit_scale, loss_terms,
+    AutoencoderParams,
+    ConvAutoencoder,
+    active_units,
+    explained_variance,
+    fit_scale,
+    loss_terms,
 )
 
 
@@ -206,8 +210,9 @@ def _chunks(slots, mask, size):
     return slots, mask
 
 
-def make_learning_phase(model: ConvAutoencoder, config: LearningConfig,
-                        on_epoch: Callable | None = None) -> LearningPhase:
+def make_learning_phase(
+    model: ConvAutoencoder, config: LearningConfig, on_epoch: Callable | None = None
+) -> LearningPhase:
     """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
     `learn` refits the input scale on the valid buffer entries, trains the network of `params` (Θ′)
@@ -264,11 +269,9 @@ class LearningPhase:
         config = self.config
         weights = dict(beta=config.beta, momentum_weight=config.momentum_weight)
         if key is None:
-            return jax.vmap(lambda f: loss_terms(self.model, params, f[None], None, **weights))(
-                fields)
+            return jax.vmap(lambda f: loss_terms(self.model, params, f[None], None, **weights))(fields)
         keys = jax.random.split(key, fields.shape[0])
-        return jax.vmap(lambda f, k: loss_terms(self.model, params, f[None], k, **weights))(
-            fields, keys)
+        return jax.vmap(lambda f, k: loss_terms(self.model, params, f[None], k, **weights))(fields, keys)
 
     def masked_means(self, params, buffer, slots, mask, readout=None) -> dict:
         """Means over the masked slots (NaN if none), with the encoder means (no sampling noise).
@@ -289,34 +292,50 @@ class LearningPhase:
             code = out["code"][:, 0]
             features = jnp.concatenate([code, jnp.ones_like(code[:, :1])], axis=1)
             target = jnp.where(chunk_mask[:, None], buffer.velocities[chunk_slots], 0).astype(dtype)
-            out = {**out, "code": code, "code_square": code**2,
-                   "gram": features[:, :, None] * features[:, None, :],
-                   "cross": features[:, :, None] * target[:, None, :]}
+            out = {
+                **out,
+                "code": code,
+                "code_square": code**2,
+                "gram": features[:, :, None] * features[:, None, :],
+                "cross": features[:, :, None] * target[:, None, :],
+            }
             if readout is not None:
-                out.update(residual=(features @ readout - target) ** 2, target=target,
-                           target_square=target**2)
+                out.update(
+                    residual=(features @ readout - target) ** 2, target=target, target_square=target**2
+                )
             return {
-                k: sums[k] + jnp.sum(jnp.where(_broadcast_mask(chunk_mask, out[k]), out[k], 0),
-                                     axis=0).astype(sums[k].dtype)
+                k: sums[k]
+                + jnp.sum(jnp.where(_broadcast_mask(chunk_mask, out[k]), out[k], 0), axis=0).astype(
+                    sums[k].dtype
+                )
                 for k in sums
             }
 
         zero = jnp.zeros((), dtype)
         codes = jnp.zeros((latent_dim,), dtype)
         width = latent_dim + 1
-        sums = {"recon": zero, "kl": zero, "total": zero, "signal": zero, "code": codes,
-                "code_square": codes, "gram": jnp.zeros((width, width), dtype),
-                "cross": jnp.zeros((width, dim), dtype)}
+        sums = {
+            "recon": zero,
+            "kl": zero,
+            "total": zero,
+            "signal": zero,
+            "code": codes,
+            "code_square": codes,
+            "gram": jnp.zeros((width, width), dtype),
+            "cross": jnp.zeros((width, dim), dtype),
+        }
         if readout is not None:
-            sums.update({k: jnp.zeros((dim,), dtype)
-                         for k in ("residual", "target", "target_square")})
+            sums.update({k: jnp.zeros((dim,), dtype) for k in ("residual", "target", "target_square")})
         chunk_slots, chunk_mask = _chunks(slots, mask, batch_size)
         n = jnp.sum(mask)
         # Real slots come first: only the chunks holding them are evaluated, so the cost follows
         # the buffer's content, not its capacity.
         sums = jax.lax.fori_loop(
-            0, (n + batch_size - 1) // batch_size,
-            lambda i, sums: add_chunk(sums, chunk_slots[i], chunk_mask[i]), sums)
+            0,
+            (n + batch_size - 1) // batch_size,
+            lambda i, sums: add_chunk(sums, chunk_slots[i], chunk_mask[i]),
+            sums,
+        )
         return {k: jnp.where(n > 0, v / jnp.maximum(n, 1), jnp.nan) for k, v in sums.items()}
 
     def train_minibatch(self, params, buffer, carry, slots, mask, index):
@@ -325,8 +344,7 @@ class LearningPhase:
         fields = _gather(buffer, slots, mask, params.scale.dtype)
 
         def objective(network):
-            out = self.losses(params.replace(network=network), fields,
-                              jax.random.fold_in(batch_key, index))
+            out = self.losses(params.replace(network=network), fields, jax.random.fold_in(batch_key, index))
             return jnp.sum(jnp.where(mask, out["total"], 0)) / jnp.maximum(jnp.sum(mask), 1)
 
         grads = jax.grad(objective)(network)
@@ -341,8 +359,9 @@ class LearningPhase:
         )
         return network, opt_state, batch_key
 
-    def run_epoch(self, params, buffer, split: Split, steps_per_epoch, epochs_key,
-                  state: _LearningState) -> _LearningState:
+    def run_epoch(
+        self, params, buffer, split: Split, steps_per_epoch, epochs_key, state: _LearningState
+    ) -> _LearningState:
         """One epoch: reshuffle the training half, its minibatches, then the validation loss."""
         shuffle_key, batch_key = jax.random.split(jax.random.fold_in(epochs_key, state.epoch))
         noise = _slot_uniform(shuffle_key, split.train)
@@ -351,11 +370,14 @@ class LearningPhase:
         # The real training slots come first: only their minibatches run (a dynamic count, so
         # an epoch costs what the buffer holds, not its capacity).
         network, opt_state, _ = jax.lax.fori_loop(
-            0, steps_per_epoch,
+            0,
+            steps_per_epoch,
             lambda i, carry: self.train_minibatch(params, buffer, carry, slots[i], mask[i], i),
-            (state.network, state.opt_state, batch_key))
-        means = self.masked_means(params.replace(network=network), buffer, split.validation,
-                                  split.validation_mask)
+            (state.network, state.opt_state, batch_key),
+        )
+        means = self.masked_means(
+            params.replace(network=network), buffer, split.validation, split.validation_mask
+        )
         validation = means["total"].astype(state.best_loss.dtype)
         epoch = state.epoch + 1
         if self.on_epoch is not None:
@@ -372,7 +394,8 @@ class LearningPhase:
             best_epoch=jnp.where(improved, epoch, state.best_epoch),
             stale_epochs=jnp.where(improved, 0, state.stale_epochs + 1),
             val_recon_history=state.val_recon_history.at[state.epoch].set(
-                means["recon"].astype(state.val_recon_history.dtype)),
+                means["recon"].astype(state.val_recon_history.dtype)
+            ),
         )
 
     def keep_going(self, enough, steps_per_epoch, state: _LearningState):
@@ -388,15 +411,13 @@ class LearningPhase:
             going &= state.epoch * steps_per_epoch < config.max_steps
         return going
 
-    def statistics(self, best, buffer, split: Split, final: _LearningState,
-                   steps_per_epoch) -> LearningStats:
+    def statistics(self, best, buffer, split: Split, final: _LearningState, steps_per_epoch) -> LearningStats:
         """`LearningStats` of the best parameters: losses on both halves, recon_explained and
         active units on the held-out half, and the R² of a linear readout fitted on the
         training half."""
         train = self.masked_means(best, buffer, split.train, split.train_mask)
         readout = fit_readout(train["gram"], train["cross"])
-        validation = self.masked_means(best, buffer, split.validation, split.validation_mask,
-                                       readout)
+        validation = self.masked_means(best, buffer, split.validation, split.validation_mask, readout)
         return LearningStats(
             recon_loss_train=train["recon"],
             recon_loss_val=validation["recon"],
@@ -450,9 +471,9 @@ class LearningPhase:
         )
         final = jax.lax.while_loop(
             lambda state: self.keep_going(enough, steps_per_epoch, state),
-            lambda state: self.run_epoch(params, buffer, split, steps_per_epoch, epochs_key,
-                                         state),
-            initial)
+            lambda state: self.run_epoch(params, buffer, split, steps_per_epoch, epochs_key, state),
+            initial,
+        )
         best = params.replace(network=final.best_network)
         return best, self.statistics(best, buffer, split, final, steps_per_epoch)
 

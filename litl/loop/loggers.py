@@ -29,13 +29,24 @@ import shutil
 import numpy as np
 
 KINDS = ("tensorboard", "wandb", "none")
-ITERATION_TAGS = {"task_loss": "task/loss", "design_mean": "design/mean",
-                  "design_min": "design/min", "design_max": "design/max",
-                  "controller_grad_norm": "gradients/controller_norm",
-                  "design_grad_norm": "gradients/design_norm",
-                  "simultaneous_recon_loss": "observer/simultaneous_recon_loss"}
-PHASE_KEYS = ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units", "kl",
-              "epochs_used", "wall_s")
+ITERATION_TAGS = {
+    "task_loss": "task/loss",
+    "design_mean": "design/mean",
+    "design_min": "design/min",
+    "design_max": "design/max",
+    "controller_grad_norm": "gradients/controller_norm",
+    "design_grad_norm": "gradients/design_norm",
+    "simultaneous_recon_loss": "observer/simultaneous_recon_loss",
+}
+PHASE_KEYS = (
+    "recon_loss_train",
+    "recon_loss_val",
+    "recon_explained",
+    "active_units",
+    "kl",
+    "epochs_used",
+    "wall_s",
+)
 AXES = "xyz"
 
 
@@ -64,8 +75,8 @@ class RunLogger:
     `image` at episode boundaries, and `close` at the end."""
 
     def __init__(self, iterations: int):
-        self.iterations = iterations          # optimization iterations per episode
-        self.sgd_steps: dict[int, int] = {}   # per seed, SGD steps of the phases so far
+        self.iterations = iterations  # optimization iterations per episode
+        self.sgd_steps: dict[int, int] = {}  # per seed, SGD steps of the phases so far
 
     def iteration(self, records: list[dict]) -> None:
         for record in records:
@@ -80,8 +91,9 @@ class RunLogger:
             per_epoch = record.get("steps_per_epoch") or 0
             for epoch, loss in enumerate(record.get("val_recon_history") or (), start=1):
                 if _number(loss):
-                    self.scalars(seed, {"learning/val_recon_by_sgd_step": float(loss)},
-                                 done + epoch * per_epoch)
+                    self.scalars(
+                        seed, {"learning/val_recon_by_sgd_step": float(loss)}, done + epoch * per_epoch
+                    )
             self.sgd_steps[seed] = done + int(record.get("sgd_steps") or 0)
 
     def restore(self, metrics: list[dict], learning: list[dict]) -> None:
@@ -109,8 +121,9 @@ class NoLogger(RunLogger):
         pass
 
 
-def snapshot_strip(snapshots: np.ndarray, reconstructions: np.ndarray, zoom: int = 4,
-                   percentile: float = 98.0) -> np.ndarray:
+def snapshot_strip(
+    snapshots: np.ndarray, reconstructions: np.ndarray, zoom: int = 4, percentile: float = 98.0
+) -> np.ndarray:
     """(H, W, 3) uint8: the snapshots' speed |v| in the top row, their reconstructions' below,
     x to the right and up upwards, on one colour scale (``magma`` up to the `percentile` of the
     inputs' nonzero speeds); a 3D field shows its mid-depth slice. Cheap enough for every
@@ -121,7 +134,7 @@ def snapshot_strip(snapshots: np.ndarray, reconstructions: np.ndarray, zoom: int
         field = np.asarray(field, np.float64)
         if field.ndim == 4:
             field = field[:, :, field.shape[2] // 2]
-        return np.linalg.norm(field, axis=-1).T[::-1]          # rows: y from the top
+        return np.linalg.norm(field, axis=-1).T[::-1]  # rows: y from the top
 
     top = [speed(f) for f in snapshots]
     bottom = [speed(f) for f in reconstructions]
@@ -145,9 +158,8 @@ class TensorBoardLogger(RunLogger):
 
         super().__init__(iterations)
         root = pathlib.Path(run_dir) / "tensorboard"
-        shutil.rmtree(root, ignore_errors=True)   # rewritten from the records (see the module)
-        self.writers = {seed: SummaryWriter(str(root / f"seed{seed}"), flush_secs=5)
-                        for seed in seeds}
+        shutil.rmtree(root, ignore_errors=True)  # rewritten from the records (see the module)
+        self.writers = {seed: SummaryWriter(str(root / f"seed{seed}"), flush_secs=5) for seed in seeds}
 
     def scalars(self, seed, values, step):
         writer = self.writers[seed]
@@ -173,9 +185,14 @@ class WandbLogger(RunLogger):
         super().__init__(iterations)
         self.wandb = wandb
         run_id = hashlib.sha1(str(pathlib.Path(run_dir).resolve()).encode()).hexdigest()[:16]
-        self.run = wandb.init(project="litl", dir=str(run_dir), id=run_id, resume="allow",
-                              name=pathlib.Path(run_dir).name,
-                              config=json.loads(json.dumps(settings)))
+        self.run = wandb.init(
+            project="litl",
+            dir=str(run_dir),
+            id=run_id,
+            resume="allow",
+            name=pathlib.Path(run_dir).name,
+            config=json.loads(json.dumps(settings)),
+        )
         # Charts against litl's step (global iteration, or SGD steps for the per-epoch curve),
         # not wandb's count of log calls.
         self.run.define_metric("litl_step")
@@ -185,8 +202,7 @@ class WandbLogger(RunLogger):
 
     def scalars(self, seed, values, step):
         if not self.silent:
-            self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} |
-                         {"litl_step": step})
+            self.run.log({f"seed{seed}/{tag}": value for tag, value in values.items()} | {"litl_step": step})
 
     def image(self, seed, tag, pixels, step):
         self.run.log({f"seed{seed}/{tag}": self.wandb.Image(pixels), "litl_step": step})
@@ -211,19 +227,22 @@ def check_kind(kind: str) -> None:
     from litl.config import SettingsError
 
     if kind not in KINDS:
-        raise SettingsError(f"output.logger={kind!r}: choose one of {list(KINDS)}",
-                            "output.logger")
+        raise SettingsError(f"output.logger={kind!r}: choose one of {list(KINDS)}", "output.logger")
     if kind == "wandb":
         try:
             import wandb  # noqa: F401
         except ImportError:
-            raise SettingsError("logger=wandb needs the Weights & Biases package: pip install "
-                                "wandb (then `wandb login`, or WANDB_MODE=offline); or use "
-                                "logger=tensorboard", "output.logger") from None
+            raise SettingsError(
+                "logger=wandb needs the Weights & Biases package: pip install "
+                "wandb (then `wandb login`, or WANDB_MODE=offline); or use "
+                "logger=tensorboard",
+                "output.logger",
+            ) from None
 
 
-def make_logger(kind: str, run_dir, seeds: list[int], iterations: int,
-                settings: dict | None = None) -> RunLogger:
+def make_logger(
+    kind: str, run_dir, seeds: list[int], iterations: int, settings: dict | None = None
+) -> RunLogger:
     """The run's logger: ``"tensorboard"``, ``"wandb"`` or ``"none"``."""
     check_kind(kind)
     if kind == "tensorboard":

@@ -26,7 +26,8 @@ of the grid so.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -60,7 +61,7 @@ class Learner:
     optimizer_init: Callable[[Any], Any]
     model: Any
 
-    def reporting_epochs(self, on_epoch) -> "Learner":
+    def reporting_epochs(self, on_epoch) -> Learner:
         """This learner with a phase that calls `on_epoch(epoch, validation_loss)` after every
         epoch (from inside the compiled phase); a phase of your own that is not a
         `LearningPhase` is kept as it is."""
@@ -99,7 +100,8 @@ class Observer:
         and, if it learns, the learning phase (``("observer.vae", "loop.learning")``). Every key
         in them counts: reports pool two runs only where all of them agree."""
         return ((f"observer.{self.settings}",) if self.settings else ()) + (
-            ("loop.learning",) if self.learned else ())
+            ("loop.learning",) if self.learned else ()
+        )
 
 
 # factory(robot, config, sim_config, dtype) -> Observer; config: the run's `litl.config.Config`
@@ -135,47 +137,68 @@ def check_kind(config) -> None:
     """Raise `SettingsError` unless `config.observer.kind` names a registered observer."""
     kind, module = config.observer.kind, config.observer.module
     if kind not in _FACTORIES:
-        hint = (f"; observer.module={module!r} registered no observer of that name" if module else
-                "; an observer of your own: observer.kind=<name> observer.module=<module that "
-                "registers it>")
-        raise SettingsError(f"observer.kind={kind!r}: unknown observer; choose one of "
-                            f"{list(names())}{hint}", "observer.kind")
+        hint = (
+            f"; observer.module={module!r} registered no observer of that name"
+            if module
+            else "; an observer of your own: observer.kind=<name> observer.module=<module that registers it>"
+        )
+        raise SettingsError(
+            f"observer.kind={kind!r}: unknown observer; choose one of {list(names())}{hint}", "observer.kind"
+        )
 
 
 def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
     """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
     settings, learning = config.observer.vae, config.loop.learning
     window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
-    model = vae.ConvAutoencoder(window.shape, latent_dim=settings.latent_dim,
-                                channels=settings.channels, activation=settings.activation.value,
-                                variational=variational)
+    model = vae.ConvAutoencoder(
+        window.shape,
+        latent_dim=settings.latent_dim,
+        channels=settings.channels,
+        activation=settings.activation.value,
+        variational=variational,
+    )
     adam = optax.adam(learning.learning_rate)
-    learner = Learner(window=window, phase=make_learning_phase(model, learning),
-                      step=vae.make_train_step(model, adam, learning.beta,
-                                               learning.momentum_weight),
-                      optimizer_init=lambda params: adam.init(params.network), model=model)
+    learner = Learner(
+        window=window,
+        phase=make_learning_phase(model, learning),
+        step=vae.make_train_step(model, adam, learning.beta, learning.momentum_weight),
+        optimizer_init=lambda params: adam.init(params.network),
+        model=model,
+    )
     return Observer(
         n_features=settings.latent_dim,
         init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
-        features=vae.make_observer(model, window), learner=learner, settings="vae")
+        features=vae.make_observer(model, window),
+        learner=learner,
+        settings="vae",
+    )
 
 
 def kmeans(robot, config, sim_config, dtype) -> Observer:
     """The k-means baseline: clusters of the rest configuration, fitted once per seed."""
     clusters = config.observer.kmeans.clusters
     if clusters > robot.layout.n_particles:
-        raise SettingsError(f"observer.kmeans.clusters={clusters} exceeds the robot's "
-                            f"{robot.layout.n_particles} particles", "observer.kmeans.clusters")
+        raise SettingsError(
+            f"observer.kmeans.clusters={clusters} exceeds the robot's {robot.layout.n_particles} particles",
+            "observer.kmeans.clusters",
+        )
     rest = robot.initial_state(dtype).x
-    return Observer(n_features=2 * clusters * sim_config.dim,
-                    init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
-                    features=kmeans_features, settings="kmeans")
+    return Observer(
+        n_features=2 * clusters * sim_config.dim,
+        init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
+        features=kmeans_features,
+        settings="kmeans",
+    )
 
 
 def no_observer(robot, config, sim_config, dtype) -> Observer:
     """No features: the controller runs open loop (on the clock, or sinusoids)."""
-    return Observer(n_features=0, init=lambda key, seed: jnp.zeros((), dtype),  # a placeholder
-                    features=lambda params, state, grid_velocity: jnp.zeros((0,), dtype))
+    return Observer(
+        n_features=0,
+        init=lambda key, seed: jnp.zeros((), dtype),  # a placeholder
+        features=lambda params, state, grid_velocity: jnp.zeros((0,), dtype),
+    )
 
 
 register("vae", autoencoder)

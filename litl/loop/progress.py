@@ -60,8 +60,12 @@ class Progress:
         latest["validation"] = float(np.mean(validation))
 
     def _write(self, line: str, newline: bool) -> None:
-        self.stream.write(("\r" if self.interactive and not newline else "") + _LABEL + line +
-                          ("\n" if newline else " " * 8))
+        self.stream.write(
+            ("\r" if self.interactive and not newline else "")
+            + _LABEL
+            + line
+            + ("\n" if newline else " " * 8)
+        )
         self.stream.flush()
 
     def update(self, episode: int, iteration: int, loss: float) -> None:
@@ -72,9 +76,11 @@ class Progress:
         width = 24
         filled = int(width * done / total)
         elapsed = time.perf_counter() - self.start
-        line = (f"[{'#' * filled}{'.' * (width - filled)}] episode {episode + 1}/{self.episodes} "
-                f"iteration {iteration + 1}/{self.iterations} loss {format_number(loss)} "
-                f"({elapsed:.0f} s)")
+        line = (
+            f"[{'#' * filled}{'.' * (width - filled)}] episode {episode + 1}/{self.episodes} "
+            f"iteration {iteration + 1}/{self.iterations} loss {format_number(loss)} "
+            f"({elapsed:.0f} s)"
+        )
         if self.interactive:
             self._write(line, newline=False)
         elif iteration + 1 == self.iterations:
@@ -92,9 +98,11 @@ class Progress:
         latest = self._epoch = {"epoch": 0, "validation": float("nan")}
 
         def line():
-            return (f"episode {episode + 1}/{self.episodes} learning phase: epoch "
-                    f"{latest['epoch']}, validation loss {format_number(latest['validation'])} "
-                    f"({time.perf_counter() - start:.1f} s; run {time.perf_counter() - self.start:.0f} s)")
+            return (
+                f"episode {episode + 1}/{self.episodes} learning phase: epoch "
+                f"{latest['epoch']}, validation loss {format_number(latest['validation'])} "
+                f"({time.perf_counter() - start:.1f} s; run {time.perf_counter() - self.start:.0f} s)"
+            )
 
         def tick():
             while not done.wait(0.25):

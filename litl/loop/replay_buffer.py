@@ -40,7 +40,7 @@ class ReplayBuffer:
         return self.fields.shape[0]
 
     @classmethod
-    def empty(cls, capacity: int, grid_shape, dim: int, dtype=jnp.float32) -> "ReplayBuffer":
+    def empty(cls, capacity: int, grid_shape, dim: int, dtype=jnp.float32) -> ReplayBuffer:
         """An empty buffer of `capacity` snapshots of shape (*grid_shape, dim).
 
         For several seeds, build one per seed under `jax.vmap` or broadcast its leaves.
@@ -51,9 +51,7 @@ class ReplayBuffer:
         if len(grid_shape) not in (2, 3) or any(int(n) < 1 for n in grid_shape):
             raise ValueError(f"grid_shape must be 2 or 3 positive sizes, got {grid_shape!r}")
         if dim != len(grid_shape):
-            raise ValueError(
-                f"dim must equal the number of grid axes ({len(grid_shape)}), got {dim!r}"
-            )
+            raise ValueError(f"dim must equal the number of grid axes ({len(grid_shape)}), got {dim!r}")
         return cls(
             fields=jnp.zeros((capacity,) + grid_shape + (dim,), dtype),
             velocities=jnp.zeros((capacity, dim), dtype),
@@ -105,8 +103,10 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
         velocities = occupied_mean(snapshots)
     velocities = jnp.asarray(velocities, buffer.velocities.dtype)
     if velocities.shape != (k, buffer.velocities.shape[1]):
-        raise ValueError(f"velocities must have shape ({k}, {buffer.velocities.shape[1]}), one "
-                         f"per snapshot, got {velocities.shape}")
+        raise ValueError(
+            f"velocities must have shape ({k}, {buffer.velocities.shape[1]}), one "
+            f"per snapshot, got {velocities.shape}"
+        )
     # Earlier snapshots of an oversize add would be overwritten by later ones; skip writing them so
     # that the scatter has unique slots (duplicate slots in a scatter are written in no set order).
     skipped = max(k - capacity, 0)

@@ -27,7 +27,6 @@ back to the lines written before it.
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import dataclasses
 import functools
 import json
@@ -41,14 +40,14 @@ import numpy as np
 import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from litl.config import Config, flatten, seeds_at_once, upgrade
+from litl.errors import UserError
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
-from litl.config import Config, flatten, seeds_at_once, upgrade
 from litl.loop.progress import Progress, say
 from litl.loop.replay_buffer import newest
 from litl.robots.robot import Robot
-
 
 # Iterations skipped in a row after which a seed is reported as failing.
 MANY_SKIPS = 5
@@ -85,8 +84,7 @@ def settings(robot: Robot, config: Config, algorithm) -> dict:
         "material": json.loads(json.dumps(dataclasses.asdict(robot.material))),
         "steps": algorithm.steps,
         "config": json.loads(json.dumps(config.run_settings())),
-        "observer": {"learned": algorithm.observer.learned,
-                     "reads": list(algorithm.observer.reads)},
+        "observer": {"learned": algorithm.observer.learned, "reads": list(algorithm.observer.reads)},
     }
 
 
@@ -112,9 +110,14 @@ def _json_value(value):
     return value if math.isfinite(value) else None
 
 
-def run(robot: Robot, config: Config, run_dir, progress: bool = True,
-        stop_after_episodes: int | None = None,
-        config_files: dict[str, str] | None = None) -> RunResult:
+def run(
+    robot: Robot,
+    config: Config,
+    run_dir,
+    progress: bool = True,
+    stop_after_episodes: int | None = None,
+    config_files: dict[str, str] | None = None,
+) -> RunResult:
     """Run (or resume) Algorithm 1 for `config.seeds` seeds at once.
 
     Args:
@@ -152,8 +155,9 @@ def run(robot: Robot, config: Config, run_dir, progress: bool = True,
     wanted = settings(robot, config, algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirectoryLock(run_dir):
-        return _run_locked(robot, config, run_dir, algorithm, wanted, bar,
-                           stop_after_episodes, config_files or {})
+        return _run_locked(
+            robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes, config_files or {}
+        )
 
 
 class RunDirectoryLock:
@@ -165,7 +169,7 @@ class RunDirectoryLock:
     holds it while it records its config, `run` takes it again).
     """
 
-    _held: dict = {}   # resolved lock path -> [open file, depth], for this process
+    _held: dict = {}  # resolved lock path -> [open file, depth], for this process
 
     def __init__(self, run_dir: pathlib.Path):
         self.path = pathlib.Path(run_dir) / ".lock"
@@ -187,7 +191,8 @@ class RunDirectoryLock:
             handle.close()
             raise RunDirectoryError(
                 f"{self.path.parent} is in use by another litl run (process {holder}); wait for "
-                f"it to finish, or choose another run directory. Nothing was changed.") from None
+                f"it to finish, or choose another run directory. Nothing was changed."
+            ) from None
         handle.seek(0)
         handle.truncate()
         handle.write(f"{os.getpid()}\n")
@@ -207,18 +212,15 @@ class RunDirectoryLock:
         return False
 
 
-def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes,
-                config_files):
+def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes, config_files):
     _claim(run_dir, wanted, config_files)
     loop = config.loop
     seeds = [config.seed + s for s in range(config.seeds)]
     logger = make_logger(config.output.logger, run_dir, seeds, loop.iterations, wanted)
-    shell = _Shell(run_dir, algorithm, seeds, logger,
-                   seeds_at_once(loop, len(seeds)))
+    shell = _Shell(run_dir, algorithm, seeds, logger, seeds_at_once(loop, len(seeds)))
     try:
         state, counters = shell.start()
-        episodes = loop.episodes if stop_after_episodes is None else min(
-            stop_after_episodes, loop.episodes)
+        episodes = loop.episodes if stop_after_episodes is None else min(stop_after_episodes, loop.episodes)
         before = np.asarray(counters["loss_before_retrain"], np.float64)
         for episode in range(int(counters["episodes_done"]), episodes):
             state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
@@ -229,9 +231,16 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episo
                 shell.log_pictures(state, (episode + 1) * loop.iterations)
             else:
                 before = np.full(config.seeds, np.nan)
-            shell.checkpoints.save(episode + 1, state, {
-                "episodes_done": episode + 1, "metrics_lines": len(shell.records),
-                "learning_lines": len(shell.learning), "loss_before_retrain": before})
+            shell.checkpoints.save(
+                episode + 1,
+                state,
+                {
+                    "episodes_done": episode + 1,
+                    "metrics_lines": len(shell.records),
+                    "learning_lines": len(shell.learning),
+                    "loss_before_retrain": before,
+                },
+            )
         bar.close()
     finally:
         shell.checkpoints.close()
@@ -240,8 +249,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episo
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, shell.seeds)
         _save_final_losses(run_dir, shell.evaluate(state), shell.seeds)
-    return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state),
-                     metrics=shell.records)
+    return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=shell.records)
 
 
 def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) -> None:
@@ -254,18 +262,18 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
             raise RunDirectoryError(
                 f"{run_dir} holds a run written by an earlier version of litl (its run.json has "
                 f"no 'config'); it cannot be resumed. Choose a new run directory (`python -m "
-                f"litl.report` still reads it). Nothing was changed.")
+                f"litl.report` still reads it). Nothing was changed."
+            )
         # Settings recorded under keys that have moved since, and the observer's description,
         # which follows from them (what the report reads).
-        found = {**found, "config": upgrade(found["config"]),
-                 "observer": wanted["observer"]}
+        found = {**found, "config": upgrade(found["config"]), "observer": wanted["observer"]}
         if found != wanted:
             found, wanted_flat = flatten(found), flatten(wanted)
-            changed = sorted(k for k in set(found) | set(wanted_flat)
-                             if found.get(k) != wanted_flat.get(k))
+            changed = sorted(k for k in set(found) | set(wanted_flat) if found.get(k) != wanted_flat.get(k))
             raise RunDirectoryError(
                 f"{run_dir} holds a run with other settings (differences in {changed}); resume it "
-                f"with the same settings or choose a new run directory. Nothing was changed.")
+                f"with the same settings or choose a new run directory. Nothing was changed."
+            )
     else:
         settings_file.write_text(json.dumps(wanted, indent=1))
     for name, text in config_files.items():
@@ -277,15 +285,20 @@ class _Shell:
     """The impure side of one run: the seeds' batched (jit of vmap) functions, the metrics and
     learning files, the checkpoints."""
 
-    def __init__(self, run_dir: pathlib.Path, algorithm, seeds: list[int], logger: RunLogger,
-                 learning_seeds_at_once: int):
+    def __init__(
+        self,
+        run_dir: pathlib.Path,
+        algorithm,
+        seeds: list[int],
+        logger: RunLogger,
+        learning_seeds_at_once: int,
+    ):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
         self.reconstruct = None
         self.plan_said = False
         batched = lambda f: jax.jit(jax.vmap(f))
         self.optimize = batched(algorithm.optimize)
-        self.learn = jax.jit(functools.partial(algorithm.learn_seeds,
-                                               at_once=learning_seeds_at_once))
+        self.learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=learning_seeds_at_once))
         if algorithm.retrains:
             # The bootstrap's learning phase is the later phases' program, `first` passed as a
             # value, not a second compilation of it.
@@ -299,15 +312,19 @@ class _Shell:
         self.learning_file = run_dir / "learning.jsonl"
         self.records: list[dict] = []
         self.learning: list[dict] = []
-        self.start_time = None     # of the optimization iterations (wall_s counts from it)
+        self.start_time = None  # of the optimization iterations (wall_s counts from it)
 
     def start(self):
         """(state, counters): from the latest checkpoint (the files cut back to it), or from the
         bootstrap (initial rollout and learning phase) of fresh states."""
         algorithm, seeds = self.algorithm, self.seeds
         template = stack_seeds([algorithm.init(seed) for seed in seeds])
-        counters = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0,
-                    "loss_before_retrain": np.full(len(seeds), np.nan)}
+        counters = {
+            "episodes_done": 0,
+            "metrics_lines": 0,
+            "learning_lines": 0,
+            "loss_before_retrain": np.full(len(seeds), np.nan),
+        }
         if self.checkpoints.latest() is not None:
             state, counters = self.checkpoints.restore(template, counters)
             self.records = _read_metrics(self.metrics_file, int(counters["metrics_lines"]))
@@ -315,14 +332,16 @@ class _Shell:
         else:
             phase_start = time.perf_counter()
             state, stats = jax.block_until_ready(self.bootstrap(shard_seeds(template)))
-            self.learning = (_learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
-                             if algorithm.observer.learned else [])
+            self.learning = (
+                _learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
+                if algorithm.observer.learned
+                else []
+            )
             counters["learning_lines"] = len(self.learning)
             self.checkpoints.save(0, state, counters)
             self.log_pictures(state, 0)
         self.logger.restore(self.records, self.learning)
-        for path, lines in ((self.metrics_file, self.records),
-                            (self.learning_file, self.learning)):
+        for path, lines in ((self.metrics_file, self.records), (self.learning_file, self.learning)):
             with open(path, "w") as out:
                 out.writelines(json.dumps(r) + "\n" for r in lines)
         self.start_time = time.perf_counter()
@@ -331,15 +350,16 @@ class _Shell:
     def _say_checkpoint_plan(self):
         """Once, when the rollout's backward pass needed segments to fit the memory budget."""
         plan = self.algorithm.checkpoint_plan()
-        if self.plan_said or plan is None or plan.budget_bytes is None or \
-                not plan.checkpoint_every:
+        if self.plan_said or plan is None or plan.budget_bytes is None or not plan.checkpoint_every:
             return
         self.plan_said = True
-        say(f"litl: the backward pass of a {plan.steps}-step rollout would keep "
+        say(
+            f"litl: the backward pass of a {plan.steps}-step rollout would keep "
             f"{plan.plain_bytes / 2**30:.3g} GiB per seed, over the budget of "
             f"{plan.budget_bytes / 2**30:.3g} GiB (sim.memory_budget): segments of "
             f"{plan.checkpoint_every} steps keep {plan.backward_bytes / 2**30:.3g} GiB, for one "
-            f"more forward pass")
+            f"more forward pass"
+        )
 
     def optimization_phase(self, state, episode: int, iterations: int, before, bar):
         """The episode's optimization iterations, each seed's metrics written as they come."""
@@ -350,10 +370,15 @@ class _Shell:
                 self._say_checkpoint_plan()
                 metrics = jax.tree.map(np.asarray, metrics)
                 step = episode * iterations + iteration
-                new = _iteration_records(metrics, stats, np.asarray(state.design), self.seeds,
-                                         (episode, iteration, step),
-                                         before if iteration < 2 else None,
-                                         time.perf_counter() - self.start_time)
+                new = _iteration_records(
+                    metrics,
+                    stats,
+                    np.asarray(state.design),
+                    self.seeds,
+                    (episode, iteration, step),
+                    before if iteration < 2 else None,
+                    time.perf_counter() - self.start_time,
+                )
                 out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
                 self.records += new
@@ -367,8 +392,7 @@ class _Shell:
         """The learning phase after `episode`, its statistics appended to learning.jsonl."""
         phase_start = time.perf_counter()
         state, stats = jax.block_until_ready(self.learn(state, first=False))
-        phase = _learning_records(stats, self.seeds, episode + 1,
-                                  time.perf_counter() - phase_start)
+        phase = _learning_records(stats, self.seeds, episode + 1, time.perf_counter() - phase_start)
         with open(self.learning_file, "a") as log:
             log.writelines(json.dumps(r) + "\n" for r in phase)
         self.learning += phase
@@ -383,7 +407,8 @@ class _Shell:
         model = self.algorithm.model
         if isinstance(self.logger, NoLogger) or not isinstance(model, ConvAutoencoder):
             return
-        if self.reconstruct is None:       # compiled once per run
+        if self.reconstruct is None:  # compiled once per run
+
             def reconstruct(params, fields):
                 code = model.apply(params.network, fields / params.scale, method="encode")[0]
                 return model.apply(params.network, code, method="decode") * params.scale
@@ -405,7 +430,10 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
     records = []
     for s, seed in enumerate(seeds):
         record = {
-            "seed": seed, "episode": episode, "iteration": iteration, "step": step,
+            "seed": seed,
+            "episode": episode,
+            "iteration": iteration,
+            "step": step,
             **{k: _json_value(v[s]) for k, v in metrics.items()},
             "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
             "design": _json_value(design[s]),
@@ -424,9 +452,18 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
 
 def _phase_statistics(stats, s: int) -> dict:
     """Seed `s`'s statistics of a learning phase (`LearningStats`, batched over seeds)."""
-    return {name: _json_value(getattr(stats, name)[s])
-            for name in ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units",
-                         "velocity_r2", "kl", "update_accepted")}
+    return {
+        name: _json_value(getattr(stats, name)[s])
+        for name in (
+            "recon_loss_train",
+            "recon_loss_val",
+            "recon_explained",
+            "active_units",
+            "velocity_r2",
+            "kl",
+            "update_accepted",
+        )
+    }
 
 
 def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:
@@ -436,15 +473,19 @@ def _learning_records(stats, seeds, phase: int, seconds: float | None = None) ->
     records = []
     for s, seed in enumerate(seeds):
         used = int(stats.epochs_used[s])
-        records.append({
-            "seed": seed, "phase": phase, "epochs_used": used,
-            "best_epoch": int(stats.best_epoch[s]),
-            "steps_per_epoch": int(stats.steps_per_epoch[s]),
-            "sgd_steps": used * int(stats.steps_per_epoch[s]),
-            **_phase_statistics(stats, s),
-            "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
-            "wall_s": None if seconds is None else round(seconds, 3),
-        })
+        records.append(
+            {
+                "seed": seed,
+                "phase": phase,
+                "epochs_used": used,
+                "best_epoch": int(stats.best_epoch[s]),
+                "steps_per_epoch": int(stats.steps_per_epoch[s]),
+                "sgd_steps": used * int(stats.steps_per_epoch[s]),
+                **_phase_statistics(stats, s),
+                "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
+                "wall_s": None if seconds is None else round(seconds, 3),
+            }
+        )
     return records
 
 
@@ -454,7 +495,8 @@ def _read_metrics(path: pathlib.Path, lines: int) -> list[dict]:
     if len(kept) < lines:
         raise RunDirectoryError(
             f"{path} has {len(kept)} lines but the checkpoint expects {lines}; it was edited or "
-            f"truncated. Restore it or start a new run directory.")
+            f"truncated. Restore it or start a new run directory."
+        )
     return [json.loads(line) for line in kept]
 
 
@@ -464,20 +506,26 @@ def _warn_unhealthy(metrics, seeds, episode, iteration):
         if reason is None:
             continue
         bad, escaped = metrics["first_nonfinite_step"][s], metrics["first_escape_step"][s]
-        what = {"simulation_nonfinite": f"the simulation blew up (NaN) at step {bad}",
-                "particles_escaped": f"particles left the grid at step {escaped}",
-                "loss_nonfinite": "the task loss was not finite",
-                "gradient_nonfinite": "the gradient was not finite"}[reason]
+        what = {
+            "simulation_nonfinite": f"the simulation blew up (NaN) at step {bad}",
+            "particles_escaped": f"particles left the grid at step {escaped}",
+            "loss_nonfinite": "the task loss was not finite",
+            "gradient_nonfinite": "the gradient was not finite",
+        }[reason]
         where = f"seed {seed}, episode {episode}, iteration {iteration}"
         in_a_row = int(metrics["consecutive_skips"][s])
         if in_a_row == 1:
-            say(f"warning: {where}: {what}; iteration skipped (parameters, optimizer and replay "
-                f"buffer unchanged)")
+            say(
+                f"warning: {where}: {what}; iteration skipped (parameters, optimizer and replay "
+                f"buffer unchanged)"
+            )
         elif in_a_row % MANY_SKIPS == 0:
-            say(f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
+            say(
+                f"warning: {where}: seed {seed} has failed {in_a_row} iterations in a row "
                 f"(latest: {what}); it is stuck at its last good parameters. Lower "
                 f"controller.learning_rate / loop.design_learning_rate or the actuator "
-                f"strength")
+                f"strength"
+            )
 
 
 def _parameters(state) -> dict:
@@ -492,8 +540,10 @@ def _save_final(path: pathlib.Path, state: LoopState):
 def _save_best(run_dir: pathlib.Path, state: LoopState, seeds):
     _save_final(run_dir / "best", state.best)
     losses, steps = np.asarray(state.best.task_loss), np.asarray(state.best.step)
-    summary = [{"seed": seed, "task_loss": _json_value(losses[s]), "step": int(steps[s])}
-               for s, seed in enumerate(seeds)]
+    summary = [
+        {"seed": seed, "task_loss": _json_value(losses[s]), "step": int(steps[s])}
+        for s, seed in enumerate(seeds)
+    ]
     (run_dir / "best.json").write_text(json.dumps(summary, indent=1))
 
 
@@ -515,8 +565,6 @@ def load_final(run_dir, robot: Robot, config: Config, which: str = "final") -> d
         raise ValueError(f"which must be 'final' or 'best', got {which!r}")
     algorithm = make_algorithm(robot, config)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
-    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct,
-                            jax.tree.map(np.asarray, _parameters(template)))
+    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, jax.tree.map(np.asarray, _parameters(template)))
     with ocp.StandardCheckpointer() as loader:
         return loader.restore((pathlib.Path(run_dir) / which).absolute(), abstract)
-

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import flax.linen as nn
 import jax.numpy as jnp
@@ -44,7 +44,7 @@ class MLPController(nn.Module):
     @nn.compact
     def __call__(self, features, task_inputs=None, time=None):
         """features: (f,); task_inputs: (t,) or None; time: () simulated time, used with `period`."""
-        parts = [features * self.feature_scale]      # exact at 1.0
+        parts = [features * self.feature_scale]  # exact at 1.0
         if task_inputs is not None:
             parts.append(task_inputs)
         if self.period is not None:

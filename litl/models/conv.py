@@ -33,8 +33,9 @@ STRIDE = 2
 def resolve(implementation: str, dim: int) -> str:
     """The implementation `"auto"` stands for on this backend, for `dim`-dimensional fields."""
     if implementation not in IMPLEMENTATIONS:
-        raise ValueError(f"unknown convolution implementation {implementation!r}; choose one of "
-                         f"{list(IMPLEMENTATIONS)}")
+        raise ValueError(
+            f"unknown convolution implementation {implementation!r}; choose one of {list(IMPLEMENTATIONS)}"
+        )
     if implementation == "auto":
         return "matmul" if jax.default_backend() == "cpu" else "xla"
     return implementation
@@ -80,7 +81,7 @@ def strided_conv_transpose(x, kernel):
     phases is one matrix product of shifted inputs; the phases are then interleaved."""
     d = x.ndim - 2
     k = kernel.shape[0]
-    lead = k - 1 if STRIDE > k - 1 else int(np.ceil((k + STRIDE - 2) / 2))
+    lead = k - 1 if k - 1 < STRIDE else int(np.ceil((k + STRIDE - 2) / 2))
     phases = []
     for phase in itertools.product(range(STRIDE), repeat=d):
         inputs, weights = [], []
@@ -111,17 +112,18 @@ class StridedConv(nn.Module):
         shape = (self.kernel,) * d + (x.shape[-1], self.features)
         kernel = self.param("kernel", nn.initializers.lecun_normal(), shape, jnp.float32)
         bias = self.param("bias", nn.initializers.zeros_init(), (self.features,), jnp.float32)
-        dtype = jnp.result_type(x, kernel, bias)       # as flax's promote_dtype
+        dtype = jnp.result_type(x, kernel, bias)  # as flax's promote_dtype
         x, kernel, bias = x.astype(dtype), kernel.astype(dtype), bias.astype(dtype)
         if self.implementation == "matmul":
             y = (strided_conv_transpose if self.transpose else strided_conv)(x, kernel)
         else:
-            numbers = lax.conv_dimension_numbers(x.shape, kernel.shape,
-                                                 _channels_last(d))
+            numbers = lax.conv_dimension_numbers(x.shape, kernel.shape, _channels_last(d))
             strides = (STRIDE,) * d
-            y = (lax.conv_transpose(x, kernel, strides, "SAME", dimension_numbers=numbers)
-                 if self.transpose else
-                 lax.conv_general_dilated(x, kernel, strides, "SAME", dimension_numbers=numbers))
+            y = (
+                lax.conv_transpose(x, kernel, strides, "SAME", dimension_numbers=numbers)
+                if self.transpose
+                else lax.conv_general_dilated(x, kernel, strides, "SAME", dimension_numbers=numbers)
+            )
         return y + bias
 
 

@@ -47,8 +47,7 @@ def fit_kmeans(positions, k: int, seed: int = 0, iterations: int = 100) -> KMean
     centers = np.asarray(centers)
     for _ in range(iterations):
         labels = np.argmin(((x[:, None] - centers[None]) ** 2).sum(-1), axis=1)
-        updated = np.stack([x[labels == c].mean(0) if np.any(labels == c) else centers[c]
-                            for c in range(k)])
+        updated = np.stack([x[labels == c].mean(0) if np.any(labels == c) else centers[c] for c in range(k)])
         if np.allclose(updated, centers):
             break
         centers = updated

@@ -82,7 +82,8 @@ class SinusoidController(nn.Module):
         if time is None:
             raise ValueError("an open-loop controller needs the simulated time")
         dtype = features.dtype
-        weights = self.param("weights", nn.initializers.normal(self.init_scale),
-                             (self.n_actuators, self.phases), dtype)
+        weights = self.param(
+            "weights", nn.initializers.normal(self.init_scale), (self.n_actuators, self.phases), dtype
+        )
         bias = self.param("bias", nn.initializers.zeros, (self.n_actuators,), dtype)
         return sinusoid_actuation(weights, bias, self.omega, jnp.asarray(time, dtype))

@@ -21,7 +21,7 @@ steps (lr 3e-3), 0.73 vs 0.67 after 100 epochs (lr 3e-3 vs 1e-3), and 8 vs 5 act
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import flax.linen as nn
 import jax
@@ -30,7 +30,8 @@ import numpy as np
 import optax
 from flax import struct
 
-from litl.models.conv import IMPLEMENTATIONS, StridedConv, resolve as resolve_convolution
+from litl.models.conv import IMPLEMENTATIONS, StridedConv
+from litl.models.conv import resolve as resolve_convolution
 from litl.models.window import Window
 
 LEVELS = 5
@@ -76,11 +77,11 @@ class ConvAutoencoder(nn.Module):
 
     def __post_init__(self):
         if self.activation not in ACTIVATIONS:
-            raise ValueError(f"unknown activation {self.activation!r}; choose one of "
-                             f"{sorted(ACTIVATIONS)}")
+            raise ValueError(f"unknown activation {self.activation!r}; choose one of {sorted(ACTIVATIONS)}")
         if self.convolution not in IMPLEMENTATIONS:
-            raise ValueError(f"unknown convolution {self.convolution!r}; choose one of "
-                             f"{list(IMPLEMENTATIONS)}")
+            raise ValueError(
+                f"unknown convolution {self.convolution!r}; choose one of {list(IMPLEMENTATIONS)}"
+            )
         if len(self.grid_shape) not in (2, 3):
             raise ValueError(f"grid_shape must have 2 or 3 axes, got {self.grid_shape!r}")
         if len(self.channels) != LEVELS or any(c < 1 for c in self.channels):
@@ -99,18 +100,18 @@ class ConvAutoencoder(nn.Module):
         self.to_mean = nn.Dense(self.latent_dim)
         # The posterior starts narrow (sigma ~ 0.1): with sigma ~ 1 the sampling noise swamps the
         # freshly initialized means and the decoder first learns to ignore the code.
-        self.to_log_variance = nn.Dense(
-            self.latent_dim, bias_init=nn.initializers.constant(INITIAL_LOG_VARIANCE)
-        ) if self.variational else None
+        self.to_log_variance = (
+            nn.Dense(self.latent_dim, bias_init=nn.initializers.constant(INITIAL_LOG_VARIANCE))
+            if self.variational
+            else None
+        )
         coarse = tuple(n // 2**LEVELS for n in padded_shape(self.grid_shape))
         self.coarse_shape = coarse + (self.channels[-1],)
         self.from_latent = nn.Dense(int(np.prod(self.coarse_shape)))
         # A linear head from the encoder means to the field's mean over the grid (`momentum`).
         self.to_momentum = nn.Dense(self.dim)
         out_channels = list(self.channels[-2::-1]) + [self.dim]
-        self.decoder_convs = [
-            StridedConv(c, self.kernel, how, transpose=True) for c in out_channels
-        ]
+        self.decoder_convs = [StridedConv(c, self.kernel, how, transpose=True) for c in out_channels]
 
     def encode(self, field):
         """(B, *grid_shape, d) normalized fields -> mean (B, r), log-variance (B, r) or None."""
@@ -193,8 +194,9 @@ def make_observer(model: ConvAutoencoder, window: Window | None = None):
     """
     window = window or Window(model.grid_shape, model.grid_shape, 1.0)
     if tuple(window.shape) != tuple(model.grid_shape):
-        raise ValueError(f"the model's grid_shape {tuple(model.grid_shape)} must be the window's "
-                         f"shape {window.shape}")
+        raise ValueError(
+            f"the model's grid_shape {tuple(model.grid_shape)} must be the window's shape {window.shape}"
+        )
 
     def observe(params: AutoencoderParams, state, grid_velocity):
         field = grid_velocity
@@ -206,8 +208,9 @@ def make_observer(model: ConvAutoencoder, window: Window | None = None):
     return observe
 
 
-def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0,
-               momentum_weight=0.0):
+def loss_terms(
+    model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0, momentum_weight=0.0
+):
     """`losses` plus what held-out evaluation needs from the same forward pass.
 
     Returns the dict of `losses` and: signal, the mean squared normalized input (the error of
@@ -225,12 +228,18 @@ def loss_terms(model: ConvAutoencoder, params: AutoencoderParams, fields, key=No
         kl = 0.5 * jnp.mean(jnp.sum(jnp.exp(log_variance) + mean**2 - 1.0 - log_variance, axis=-1))
     else:
         kl = jnp.zeros((), recon.dtype)
-    return {"recon": recon, "kl": kl, "total": fit + beta * kl / np.prod(x.shape[1:]),
-            "signal": jnp.mean(x**2), "code": mean}
+    return {
+        "recon": recon,
+        "kl": kl,
+        "total": fit + beta * kl / np.prod(x.shape[1:]),
+        "signal": jnp.mean(x**2),
+        "code": mean,
+    }
 
 
-def losses(model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0,
-           momentum_weight=0.0):
+def losses(
+    model: ConvAutoencoder, params: AutoencoderParams, fields, key=None, beta=1.0, momentum_weight=0.0
+):
     """Mean per-pixel squared reconstruction error, KL to N(0, I) per sample, and their total.
 
     total = recon + beta * KL / (values per field): the negative ELBO of a unit-variance Gaussian
@@ -273,8 +282,9 @@ def per_pixel_reconstruction_loss(model, params: AutoencoderParams, fields):
     return jnp.mean(jnp.linalg.norm(reconstruction - x, axis=-1)) * params.scale
 
 
-def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformation, beta=1.0,
-                    momentum_weight=0.0):
+def make_train_step(
+    model: ConvAutoencoder, optimizer: optax.GradientTransformation, beta=1.0, momentum_weight=0.0
+):
     """`step(params, opt_state, fields, key) -> (params, opt_state, losses)`: one Adam step.
 
     Pure and jittable; vmappable over seeds. Only the network is trained; the scale is kept.
@@ -282,8 +292,7 @@ def make_train_step(model: ConvAutoencoder, optimizer: optax.GradientTransformat
 
     def step(params: AutoencoderParams, opt_state, fields, key):
         def objective(network):
-            out = losses(model, params.replace(network=network), fields, key, beta,
-                         momentum_weight)
+            out = losses(model, params.replace(network=network), fields, key, beta, momentum_weight)
             return out["total"], out
 
         grads, out = jax.grad(objective, has_aux=True)(params.network)

@@ -46,14 +46,16 @@ class Window:
         object.__setattr__(self, "grid_shape", tuple(int(n) for n in self.grid_shape))
         object.__setattr__(self, "shape", tuple(int(n) for n in self.shape))
         if len(self.shape) != len(self.grid_shape) or any(
-                not 0 < w <= n for w, n in zip(self.shape, self.grid_shape)):
-            raise ValueError(f"window shape {self.shape} must have one size in [1, n] per grid "
-                             f"axis of {self.grid_shape}")
+            not 0 < w <= n for w, n in zip(self.shape, self.grid_shape)
+        ):
+            raise ValueError(
+                f"window shape {self.shape} must have one size in [1, n] per grid axis of {self.grid_shape}"
+            )
         if not self.dx > 0:
             raise ValueError(f"dx must be positive, got {self.dx!r}")
 
     @classmethod
-    def around(cls, grid_shape, dx: float, size: float | None) -> "Window":
+    def around(cls, grid_shape, dx: float, size: float | None) -> Window:
         """A cube (square) of side `size` in domain units; None: the whole grid.
 
         The side in nodes is rounded up to a multiple of 32 (the encoder's five halvings) and
@@ -62,10 +64,16 @@ class Window:
         grid_shape = tuple(int(n) for n in grid_shape)
         if size is None:
             return cls(grid_shape, grid_shape, dx)
-        if isinstance(size, bool) or not isinstance(size, (int, float)) or not size > 0 \
-                or not math.isfinite(size):
-            raise ValueError(f"observer window must be a positive length in domain units (or "
-                             f"null for the whole grid), got {size!r}")
+        if (
+            isinstance(size, bool)
+            or not isinstance(size, (int, float))
+            or not size > 0
+            or not math.isfinite(size)
+        ):
+            raise ValueError(
+                f"observer window must be a positive length in domain units (or "
+                f"null for the whole grid), got {size!r}"
+            )
         nodes = NODE_MULTIPLE * math.ceil(size / dx / NODE_MULTIPLE - 1e-9)
         return cls(grid_shape, tuple(min(nodes, n) for n in grid_shape), dx)
 

@@ -20,16 +20,49 @@ iteration, and per SGD step of every learning phase, Fig. 5), `table1.md`, `tabl
 
 from litl.report.cli import main
 from litl.report.runs import (
-    Group, ReportError, Run, find_run_dirs, group_runs, labels, load_run, load_runs, read_metrics,
+    Group,
+    ReportError,
+    Run,
+    find_run_dirs,
+    group_runs,
+    labels,
+    load_run,
+    load_runs,
+    read_metrics,
 )
 from litl.report.stats import (
-    Curve, components, confidence_band, curves, final_values, series, t_quantile, table1,
+    Curve,
+    components,
+    confidence_band,
+    curves,
+    final_values,
+    series,
+    t_quantile,
+    table1,
 )
 from litl.report.summary import Report, summarize, summary_markdown, write_report
 
 __all__ = [
-    "Curve", "Group", "Report", "ReportError", "Run", "components", "confidence_band", "curves",
-    "final_values", "find_run_dirs", "group_runs", "labels", "load_run", "load_runs", "main",
-    "read_metrics", "series", "summarize", "summary_markdown", "t_quantile", "table1",
+    "Curve",
+    "Group",
+    "Report",
+    "ReportError",
+    "Run",
+    "components",
+    "confidence_band",
+    "curves",
+    "final_values",
+    "find_run_dirs",
+    "group_runs",
+    "labels",
+    "load_run",
+    "load_runs",
+    "main",
+    "read_metrics",
+    "series",
+    "summarize",
+    "summary_markdown",
+    "t_quantile",
+    "table1",
     "write_report",
 ]

@@ -13,12 +13,14 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m litl.report",
         description="Aggregate the seeds and runs of a run or Hydra multirun directory into the "
-                    "paper's plots (task loss with confidence bands, reconstruction loss), "
-                    "Table 1 (markdown and CSV) and a summary (markdown and JSON).")
+        "paper's plots (task loss with confidence bands, reconstruction loss), "
+        "Table 1 (markdown and CSV) and a summary (markdown and JSON).",
+    )
     parser.add_argument("dir", help="a run directory or a multirun directory holding several")
     parser.add_argument("--out", default=None, help="where to write the report (default: DIR)")
-    parser.add_argument("--level", type=float, default=0.9,
-                        help="confidence level of the bands and intervals (default: 0.9)")
+    parser.add_argument(
+        "--level", type=float, default=0.9, help="confidence level of the bands and intervals (default: 0.9)"
+    )
     return parser
 
 
@@ -37,18 +39,25 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'robot / label':<{width}}  seeds  final task loss (mean ± {args.level:.0%} CI)")
     for g in groups:
         final = g["final_task_loss"]
-        half = (f" ± {format_number(final['half_width'])}" if final["half_width"] is not None
-                else " (one seed, no CI)")
-        print(f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  "
-              f"{format_number(final['mean'])}{half}")
+        half = (
+            f" ± {format_number(final['half_width'])}"
+            if final["half_width"] is not None
+            else " (one seed, no CI)"
+        )
+        print(
+            f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  "
+            f"{format_number(final['mean'])}{half}"
+        )
     for robot, best in report.summary["best"].items():
         if best["compared"] > 1:
             unjudged = unjudged_reason(best)
             if unjudged:
                 caveat = f" ({unjudged})"
             elif best["overlaps_runner_up"]:
-                caveat = (f" (its {args.level:.0%} interval overlaps the runner-up's: the "
-                          f"difference is not clear at this level)")
+                caveat = (
+                    f" (its {args.level:.0%} interval overlaps the runner-up's: the "
+                    f"difference is not clear at this level)"
+                )
             else:
                 caveat = f" (its {args.level:.0%} interval does not overlap the runner-up's)"
             print(f"lowest final task loss for {robot}: {best['label']}{caveat}")

@@ -16,8 +16,18 @@ from litl.report.stats import Curve
 
 XLABEL = "optimization iteration"
 # tab10: one colour per label, the same in every figure of a report.
-PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-           "#7f7f7f", "#bcbd22", "#17becf")
+PALETTE = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+)
 
 
 def label_colors(labels: list[str]) -> dict[str, str]:
@@ -26,8 +36,9 @@ def label_colors(labels: list[str]) -> dict[str, str]:
     return {label: PALETTE[i % len(PALETTE)] for i, label in enumerate(distinct)}
 
 
-def plot_panels(panels, path, ylabel: str, colors: dict[str, str], level: float,
-                log: bool = False, steps: bool = False) -> pathlib.Path:
+def plot_panels(
+    panels, path, ylabel: str, colors: dict[str, str], level: float, log: bool = False, steps: bool = False
+) -> pathlib.Path:
     """Write one PNG with a panel per entry: lines for the means, shaded confidence bands.
 
     Args:
@@ -50,11 +61,25 @@ def plot_panels(panels, path, ylabel: str, colors: dict[str, str], level: float,
             color = colors.get(curve.label, PALETTE[0])
             # A single iteration would draw no line; a marker keeps it visible.
             marker = "o" if len(curve.steps) == 1 else None
-            ax.plot(curve.steps, curve.mean, linestyle=style, color=color, marker=marker,
-                    label=text, drawstyle="steps-post" if steps else "default")
+            ax.plot(
+                curve.steps,
+                curve.mean,
+                linestyle=style,
+                color=color,
+                marker=marker,
+                label=text,
+                drawstyle="steps-post" if steps else "default",
+            )
             if np.any(curve.high > curve.low):
-                ax.fill_between(curve.steps, curve.low, curve.high, color=color, alpha=0.2,
-                                linewidth=0, step="post" if steps else None)
+                ax.fill_between(
+                    curve.steps,
+                    curve.low,
+                    curve.high,
+                    color=color,
+                    alpha=0.2,
+                    linewidth=0,
+                    step="post" if steps else None,
+                )
         values = np.concatenate([np.concatenate([c.low, c.high]) for c, _, _ in lines])
         values = values[np.isfinite(values)]
         if log and values.size and np.all(values > 0):
@@ -64,7 +89,7 @@ def plot_panels(panels, path, ylabel: str, colors: dict[str, str], level: float,
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
         ax.legend(fontsize="small", title=f"mean, {level:.0%} CI", title_fontsize="small")
-    for ax in axes[len(panels):]:
+    for ax in axes[len(panels) :]:
         ax.set_visible(False)
     path = pathlib.Path(path)
     figure.savefig(path, dpi=120)
@@ -74,22 +99,24 @@ def plot_panels(panels, path, ylabel: str, colors: dict[str, str], level: float,
 def plot_task_loss(task_curves: list[Curve], path, colors, level) -> pathlib.Path:
     """Task loss vs optimization iteration, a panel per robot, a curve per label (Fig. 4)."""
     robots = list(dict.fromkeys(c.robot for c in task_curves))
-    panels = [(robot, [(c, "-", c.label) for c in task_curves if c.robot == robot])
-              for robot in robots]
+    panels = [(robot, [(c, "-", c.label) for c in task_curves if c.robot == robot]) for robot in robots]
     return plot_panels(panels, path, "task loss", colors, level)
 
 
 def plot_components(component_curves: list[Curve], path, colors, level) -> pathlib.Path:
     """Each task term vs optimization iteration, a panel per robot and term."""
     keys = list(dict.fromkeys((c.robot, c.key) for c in component_curves))
-    panels = [(f"{robot}: {key.removeprefix('task/')}",
-               [(c, "-", c.label) for c in component_curves if (c.robot, c.key) == (robot, key)])
-              for robot, key in keys]
+    panels = [
+        (
+            f"{robot}: {key.removeprefix('task/')}",
+            [(c, "-", c.label) for c in component_curves if (c.robot, c.key) == (robot, key)],
+        )
+        for robot, key in keys
+    ]
     return plot_panels(panels, path, "task term", colors, level)
 
 
-def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, colors,
-                    level) -> pathlib.Path:
+def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, colors, level) -> pathlib.Path:
     """Reconstruction loss of the observer in use vs optimization iteration (Fig. 5).
 
     Solid lines are the validation loss, dashed ones the training loss, both as recorded by the
@@ -119,8 +146,7 @@ def plot_recon_sgd(groups, path, colors) -> pathlib.Path | None:
             first = True
             for run in group.runs:
                 for seed in sorted({r["seed"] for r in run.learning}):
-                    phases = sorted((r for r in run.learning if r["seed"] == seed),
-                                    key=lambda r: r["phase"])
+                    phases = sorted((r for r in run.learning if r["seed"] == seed), key=lambda r: r["phase"])
                     x, y, start = [], [], 0
                     for phase in phases:
                         history = [np.nan if v is None else v for v in phase["val_recon_history"]]
@@ -128,8 +154,14 @@ def plot_recon_sgd(groups, path, colors) -> pathlib.Path | None:
                         y += history
                         start = x[-1] if x else start
                     if x:
-                        ax.plot(x, y, color=colors[group.label], lw=0.8, alpha=0.8,
-                                label=group.label if first else None)
+                        ax.plot(
+                            x,
+                            y,
+                            color=colors[group.label],
+                            lw=0.8,
+                            alpha=0.8,
+                            label=group.label if first else None,
+                        )
                         first, drawn = False, True
         ax.set_title(robot)
         ax.set_xlabel("SGD step (learning phases one after another)")

@@ -7,7 +7,6 @@ them, numbered and possibly nested (a date folder, `0/`, `1/`, ...); `load_runs`
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import dataclasses
 import json
 import math
@@ -16,6 +15,7 @@ import pathlib
 import re
 
 from litl.config import MOVED_KEYS, Config, LoopConfig, Method, flatten
+from litl.errors import UserError
 
 _METHOD = LoopConfig()
 # The paper's method: these ablation switches are named in a label only when a run departs from
@@ -31,36 +31,62 @@ ABLATIONS = (
 # keys lived then in litl.config (one_shot / simultaneous became loop.schedule); `MOVED_KEYS`
 # says where they live now.
 LEGACY_KEYS = {
-    "episodes": "loop.episodes", "iterations": "loop.iterations", "steps": "sim.steps",
-    "dtype": "sim.dtype", "observer": "observer.kind", "latent_dim": "observer.latent_dim",
-    "window": "observer.window", "channels": "observer.channels",
-    "activation": "observer.activation", "clusters": "observer.clusters",
-    "controller": "controller.kind", "controller_widths": "controller.widths",
-    "controller_omega": "controller.omega", "controller_period": "controller.period",
+    "episodes": "loop.episodes",
+    "iterations": "loop.iterations",
+    "steps": "sim.steps",
+    "dtype": "sim.dtype",
+    "observer": "observer.kind",
+    "latent_dim": "observer.latent_dim",
+    "window": "observer.window",
+    "channels": "observer.channels",
+    "activation": "observer.activation",
+    "clusters": "observer.clusters",
+    "controller": "controller.kind",
+    "controller_widths": "controller.widths",
+    "controller_omega": "controller.omega",
+    "controller_period": "controller.period",
     "feature_gradient": "controller.feature_gradient",
     "learning_rate": "controller.learning_rate",
-    "design_learning_rate": "loop.design_learning_rate", "gradient_clip": "loop.gradient_clip",
-    "snapshot_stride": "loop.snapshot_stride", "replay_capacity": "loop.replay_capacity",
-    "alpha": "loop.alpha", "replay": "loop.replay", "codesign": "loop.codesign",
-    "learning": "loop.learning", "seeds": "seeds", "seed": "seed",
+    "design_learning_rate": "loop.design_learning_rate",
+    "gradient_clip": "loop.gradient_clip",
+    "snapshot_stride": "loop.snapshot_stride",
+    "replay_capacity": "loop.replay_capacity",
+    "alpha": "loop.alpha",
+    "replay": "loop.replay",
+    "codesign": "loop.codesign",
+    "learning": "loop.learning",
+    "seeds": "seeds",
+    "seed": "seed",
 }
 # What the built-in observers read, for run.json files that predate the settings' sections (they
 # listed single keys, and missed some).
-LEGACY_READS = {"vae": ("observer.vae", "loop.learning"), "ae": ("observer.vae", "loop.learning"),
-                "kmeans": ("observer.kmeans",)}
+LEGACY_READS = {
+    "vae": ("observer.vae", "loop.learning"),
+    "ae": ("observer.vae", "loop.learning"),
+    "kmeans": ("observer.kmeans",),
+}
 OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
 IGNORED = ("seed", "seeds", "sim.steps", "observer.kind", "controller.kind")
 # How a setting that differs between runs is named in their labels (others by their key).
-SHORT_NAMES = (("observer.vae.latent_dim", "r"), ("observer.kmeans.clusters", "k"),
-               ("controller.learning_rate", "lr"), ("loop.design_learning_rate", "design lr"))
+SHORT_NAMES = (
+    ("observer.vae.latent_dim", "r"),
+    ("observer.kmeans.clusters", "k"),
+    ("controller.learning_rate", "lr"),
+    ("loop.design_learning_rate", "design lr"),
+)
 
 
 def method_defaults(method: str) -> dict:
     """The settings `method` sets, by dotted key: those where the methods differ."""
     starts = {m.value: flatten(Config.for_method(m).run_settings()) for m in Method}
-    return {key: value for key, value in starts[method].items()
-            if key != "method" and len({json.dumps(s.get(key)) for s in starts.values()}) > 1}
+    return {
+        key: value
+        for key, value in starts[method].items()
+        if key != "method" and len({json.dumps(s.get(key)) for s in starts.values()}) > 1
+    }
+
+
 REQUIRED_KEYS = ("seed", "step", "task_loss")
 
 
@@ -101,12 +127,11 @@ class Run:
             legacy = dict(self.settings.get("loop", {}))
             one_shot = legacy.pop("one_shot", False)
             simultaneous = legacy.pop("simultaneous", False)
-            schedule = ("one_shot" if one_shot else "simultaneous" if simultaneous
-                        else "alternating")
+            schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
             moved = {LEGACY_KEYS.get(key, key): value for key, value in legacy.items()}
             flat = {**flatten(moved), "loop.schedule": schedule}
         flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
-        flat.setdefault("method", Method.litl.value)   # runs from before methods were named
+        flat.setdefault("method", Method.litl.value)  # runs from before methods were named
         return flat
 
     @property
@@ -129,18 +154,17 @@ class Run:
         known = self.settings.get("observer", {}).get("learned")
         if known is not None:
             return bool(known)
-        return "loop.learning" in LEGACY_READS.get(self.observer, ())          # older run.json
+        return "loop.learning" in LEGACY_READS.get(self.observer, ())  # older run.json
 
     @property
     def observer_reads(self) -> tuple[str, ...]:
         """The settings the run's observer depends on (`Observer.reads`, dotted keys)."""
         known = self.settings.get("observer", {}).get("reads")
         if known is None:
-            return LEGACY_READS.get(self.observer, ())                          # older run.json
-        moved = tuple(MOVED_KEYS.get(LEGACY_KEYS.get(key, key), LEGACY_KEYS.get(key, key))
-                      for key in known)
+            return LEGACY_READS.get(self.observer, ())  # older run.json
+        moved = tuple(MOVED_KEYS.get(LEGACY_KEYS.get(key, key), LEGACY_KEYS.get(key, key)) for key in known)
         if moved != tuple(known) and self.observer in LEGACY_READS:
-            return LEGACY_READS[self.observer]      # older run.json: the observer's sections
+            return LEGACY_READS[self.observer]  # older run.json: the observer's sections
         return moved
 
     @property
@@ -150,8 +174,11 @@ class Run:
 
 def _natural_key(path: pathlib.Path):
     # Hydra numbers jobs 0, 1, ..., 10: sort "10" after "9".
-    return [(0, int(part), "") if part.isdigit() else (1, 0, part)
-            for part in re.split(r"(\d+)", str(path)) if part]
+    return [
+        (0, int(part), "") if part.isdigit() else (1, 0, part)
+        for part in re.split(r"(\d+)", str(path))
+        if part
+    ]
 
 
 def find_run_dirs(path) -> list[pathlib.Path]:
@@ -161,8 +188,11 @@ def find_run_dirs(path) -> list[pathlib.Path]:
         raise ReportError(f"{path} does not exist")
     if not path.is_dir():
         raise ReportError(f"{path} is not a directory; give a run or multirun directory")
-    found = [pathlib.Path(root) for root, _, files in os.walk(path)
-             if "run.json" in files and "metrics.jsonl" in files]
+    found = [
+        pathlib.Path(root)
+        for root, _, files in os.walk(path)
+        if "run.json" in files and "metrics.jsonl" in files
+    ]
     return sorted(found, key=_natural_key)
 
 
@@ -188,16 +218,20 @@ def read_metrics(path) -> tuple[dict, ...]:
             except json.JSONDecodeError as error:
                 raise ReportError(
                     f"{path}, line {number}: not valid JSON ({error.msg}, column {error.colno}); "
-                    f"fix or delete the line") from None
+                    f"fix or delete the line"
+                ) from None
             if not isinstance(record, dict):
-                raise ReportError(f"{path}, line {number}: expected a JSON object, got "
-                                  f"{type(record).__name__}")
+                raise ReportError(
+                    f"{path}, line {number}: expected a JSON object, got {type(record).__name__}"
+                )
             missing = [key for key in REQUIRED_KEYS if key not in record]
             if missing:
                 raise ReportError(f"{path}, line {number}: missing {', '.join(missing)}")
             if not all(isinstance(record[key], int) for key in ("seed", "step")):
-                raise ReportError(f"{path}, line {number}: seed and step must be integers, got "
-                                  f"{record['seed']!r} and {record['step']!r}")
+                raise ReportError(
+                    f"{path}, line {number}: seed and step must be integers, got "
+                    f"{record['seed']!r} and {record['step']!r}"
+                )
             records.append({key: _finite(value) for key, value in record.items()})
     return tuple(records)
 
@@ -209,11 +243,14 @@ def load_run(path) -> Run:
         settings = json.loads((path / "run.json").read_text())
     except (OSError, json.JSONDecodeError) as error:
         raise ReportError(f"{path / 'run.json'}: cannot be read ({error})") from None
-    if not isinstance(settings, dict) or not isinstance(settings.get("config",
-                                                                     settings.get("loop")), dict):
+    if not isinstance(settings, dict) or not isinstance(settings.get("config", settings.get("loop")), dict):
         raise ReportError(f"{path / 'run.json'}: expected an object with a 'config' object")
-    return Run(path=path, settings=settings, records=read_metrics(path / "metrics.jsonl"),
-               learning=read_learning(path / "learning.jsonl"))
+    return Run(
+        path=path,
+        settings=settings,
+        records=read_metrics(path / "metrics.jsonl"),
+        learning=read_learning(path / "learning.jsonl"),
+    )
 
 
 def read_learning(path) -> tuple[dict, ...]:
@@ -227,10 +264,16 @@ def read_learning(path) -> tuple[dict, ...]:
             record = json.loads(line)
         except json.JSONDecodeError as error:
             raise ReportError(f"{path}, line {number}: not valid JSON ({error.msg})") from None
-        if not isinstance(record, dict) or not {"seed", "phase", "steps_per_epoch",
-                                                "val_recon_history"} <= set(record):
-            raise ReportError(f"{path}, line {number}: expected a learning-phase record with "
-                              f"seed, phase, steps_per_epoch and val_recon_history")
+        if not isinstance(record, dict) or not {
+            "seed",
+            "phase",
+            "steps_per_epoch",
+            "val_recon_history",
+        } <= set(record):
+            raise ReportError(
+                f"{path}, line {number}: expected a learning-phase record with "
+                f"seed, phase, steps_per_epoch and val_recon_history"
+            )
         records.append(record)
     return tuple(records)
 
@@ -245,7 +288,8 @@ def load_runs(path) -> list[Run]:
     if not run_dirs:
         raise ReportError(
             f"no runs found in {path}: no directory below it holds both run.json and "
-            f"metrics.jsonl (written by `python -m litl` or `litl.loop.run`)")
+            f"metrics.jsonl (written by `python -m litl` or `litl.loop.run`)"
+        )
     return [load_run(run_dir) for run_dir in run_dirs]
 
 
@@ -255,7 +299,7 @@ def _relevant(name: str, run: Run) -> bool:
     switches are named by `ABLATIONS`."""
     if name.startswith(("observer.", "loop.learning.")) and name not in IGNORED:
         return any(name == read or name.startswith(read + ".") for read in run.observer_reads)
-    if name.startswith("controller.") and name.count(".") > 1:     # controller.<kind>.<key>
+    if name.startswith("controller.") and name.count(".") > 1:  # controller.<kind>.<key>
         return name.split(".")[1] == run.controller
     return name not in (*IGNORED, *(setting for setting, _, _ in ABLATIONS))
 
@@ -266,8 +310,7 @@ def _ablation_applies(setting: str, run: Run) -> bool:
 
 
 def _format(value, name: str = "") -> str:
-    if name == "dx" and isinstance(value, float) and value > 0 and abs(
-            1 / value - round(1 / value)) < 1e-9:
+    if name == "dx" and isinstance(value, float) and value > 0 and abs(1 / value - round(1 / value)) < 1e-9:
         return f"1/{round(1 / value)}"
     if isinstance(value, float):
         return f"{value:g}"
@@ -279,8 +322,11 @@ def _format(value, name: str = "") -> str:
 def _comparable(run: Run) -> dict:
     """A run's settings that may tell it apart from other runs of the same robot (the steps
     used, not `sim.steps`, which may be null: the robot's default)."""
-    return {**run.config, **flatten({"material": run.settings.get("material", {})}),
-            **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")}}
+    return {
+        **run.config,
+        **flatten({"material": run.settings.get("material", {})}),
+        **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")},
+    }
 
 
 def labels(runs: list[Run]) -> list[str]:
@@ -300,21 +346,28 @@ def labels(runs: list[Run]) -> list[str]:
         keys = sorted({key for s in settings for key in s}, key=lambda key: names.get(key, key))
         varying = []
         for key in keys:
-            values = {json.dumps(s.get(key), sort_keys=True)
-                      for s, i in zip(settings, indices) if _relevant(key, runs[i])}
+            values = {
+                json.dumps(s.get(key), sort_keys=True)
+                for s, i in zip(settings, indices)
+                if _relevant(key, runs[i])
+            }
             if len(values) > 1:
                 varying.append(key)
         for s, i in zip(settings, indices):
             run = runs[i]
             # Where runs differ in their method, a key at its method's value is the method's.
             start = method_defaults(s["method"]) if "method" in varying else {}
-            head = [run.head] + [f"{names.get(key, key)}={_format(s[key], key)}"
-                                 for key in varying if _relevant(key, run) and key in s
-                                 and (key not in start or start[key] != s[key])]
+            head = [run.head] + [
+                f"{names.get(key, key)}={_format(s[key], key)}"
+                for key in varying
+                if _relevant(key, run) and key in s and (key not in start or start[key] != s[key])
+            ]
             config = run.config
-            tail = [name(config[key]) for key, default, name in ABLATIONS
-                    if key in config and config[key] != default
-                    and _ablation_applies(key, run)]
+            tail = [
+                name(config[key])
+                for key, default, name in ABLATIONS
+                if key in config and config[key] != default and _ablation_applies(key, run)
+            ]
             result[i] = ", ".join([" ".join(head)] + tail)
     return result
 
@@ -354,5 +407,4 @@ def group_runs(runs: list[Run]) -> list[Group]:
         rank = OBSERVER_ORDER.index(observer) if observer in OBSERVER_ORDER else len(OBSERVER_ORDER)
         return robot, rank, label
 
-    return [Group(robot, label, tuple(pooled[(robot, label)]))
-            for robot, label in sorted(pooled, key=order)]
+    return [Group(robot, label, tuple(pooled[(robot, label)])) for robot, label in sorted(pooled, key=order)]

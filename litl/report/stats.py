@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+
 # scipy comes with jax (one of its requirements), so it costs litl no extra dependency.
 from scipy.special import stdtrit
 
@@ -112,9 +113,11 @@ def final_window_values(group: Group, key: str = "task_loss", last: int = 10) ->
     tail = values[:, -last:]
     finite = np.isfinite(tail)
     with np.errstate(invalid="ignore"):
-        return np.where(finite.any(axis=1),
-                        np.where(finite, tail, 0.0).sum(axis=1) / np.maximum(finite.sum(axis=1), 1),
-                        np.nan)
+        return np.where(
+            finite.any(axis=1),
+            np.where(finite, tail, 0.0).sum(axis=1) / np.maximum(finite.sum(axis=1), 1),
+            np.nan,
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,8 +158,9 @@ def curves(groups: list[Group], key: str = "task_loss", level: float = 0.9) -> l
 
 def components(group: Group) -> list[str]:
     """The ``task/<term>`` metric names recorded by a group, sorted."""
-    return sorted({key for run in group.runs for record in run.records for key in record
-                   if key.startswith("task/")})
+    return sorted(
+        {key for run in group.runs for record in run.records for key in record if key.startswith("task/")}
+    )
 
 
 def table1(groups: list[Group], key: str = "retrain_change") -> list[dict]:
@@ -180,9 +184,14 @@ def table1(groups: list[Group], key: str = "retrain_change") -> list[dict]:
                     by_retrain.setdefault(int(record.get("episode", 0)), []).append(change)
         for retrain in sorted(by_retrain):
             changes = np.asarray(by_retrain[retrain])
-            rows.append({
-                "robot": group.robot, "label": group.label, "retrain": retrain,
-                "mean": float(changes.mean()),
-                "std": float(changes.std(ddof=1)) if len(changes) > 1 else math.nan,
-                "n": len(changes)})
+            rows.append(
+                {
+                    "robot": group.robot,
+                    "label": group.label,
+                    "retrain": retrain,
+                    "mean": float(changes.mean()),
+                    "std": float(changes.std(ddof=1)) if len(changes) > 1 else math.nan,
+                    "n": len(changes),
+                }
+            )
     return rows

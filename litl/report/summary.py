@@ -14,7 +14,13 @@ from litl.formatting import format_number
 from litl.report import figures
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
 from litl.report.stats import (
-    components, confidence_band, curves, final_values, final_window_values, series, table1,
+    components,
+    confidence_band,
+    curves,
+    final_values,
+    final_window_values,
+    series,
+    table1,
 )
 
 # The final performance of a seed: the mean of its last this many iterations.
@@ -48,8 +54,12 @@ def _interval(mean, low, high, n: int) -> dict:
     (low, high and half_width are None), however close `confidence_band` collapsed it."""
     if n < 2:
         return {"mean": _number(mean), "low": None, "high": None, "half_width": None}
-    return {"mean": _number(mean), "low": _number(low), "high": _number(high),
-            "half_width": _number(high - mean)}
+    return {
+        "mean": _number(mean),
+        "low": _number(low),
+        "high": _number(high),
+        "half_width": _number(high - mean),
+    }
 
 
 def unjudged_reason(best: dict) -> str | None:
@@ -63,8 +73,10 @@ def unjudged_reason(best: dict) -> str | None:
         return None
     if len(lacking) == 2:
         return "one seed each: no confidence interval, the difference cannot be judged"
-    return (f"{lacking[0]} has one seed with a final task loss: no confidence interval, the "
-            f"difference cannot be judged")
+    return (
+        f"{lacking[0]} has one seed with a final task loss: no confidence interval, the "
+        f"difference cannot be judged"
+    )
 
 
 def _relative(path: pathlib.Path, source: pathlib.Path) -> str:
@@ -79,15 +91,17 @@ def _health_notes(group: Group, source: pathlib.Path) -> list[str]:
     for run in group.runs:
         for seed in run.seeds:
             records = [r for r in run.records if int(r["seed"]) == seed]
-            for key, what in (("first_nonfinite_step", "blew up (non-finite values)"),
-                              ("first_escape_step", "lost particles off the grid")):
-                bad = [r for r in records
-                       if isinstance(r.get(key), (int, float)) and r[key] >= 0]
+            for key, what in (
+                ("first_nonfinite_step", "blew up (non-finite values)"),
+                ("first_escape_step", "lost particles off the grid"),
+            ):
+                bad = [r for r in records if isinstance(r.get(key), (int, float)) and r[key] >= 0]
                 if bad:
                     notes.append(
                         f"{group.robot} / {group.label}: {_relative(run.path, source)} seed "
                         f"{seed} {what} in {len(bad)} of {len(records)} iterations, first at "
-                        f"iteration {min(int(r['step']) for r in bad)}")
+                        f"iteration {min(int(r['step']) for r in bad)}"
+                    )
     return notes
 
 
@@ -95,14 +109,15 @@ def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[
     notes = []
     missing = int(np.isnan(values).sum())
     if missing:
-        notes.append(f"{group.robot} / {group.label}: {missing} of {values.size} task-loss values "
-                     f"are missing (null: non-finite, or a seed without that iteration); means "
-                     f"and bands use the seeds that have them")
+        notes.append(
+            f"{group.robot} / {group.label}: {missing} of {values.size} task-loss values "
+            f"are missing (null: non-finite, or a seed without that iteration); means "
+            f"and bands use the seeds that have them"
+        )
     return notes
 
 
-def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
-              level: float) -> dict:
+def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level: float) -> dict:
     """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
 
     Each group's final task loss has its mean and Student-t interval at `level` (low, high,
@@ -121,42 +136,69 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path,
         window = final_window_values(group, "task_loss", FINAL_WINDOW)
         window_mean, window_low, window_high = confidence_band(window, level)
         finite_window = window[np.isfinite(window)]
-        entries.append({
-            "robot": group.robot, "label": group.label,
-            "observer": group.runs[0].observer, "seeds": group.n_seeds,
-            "runs": [_relative(run.path, source) for run in group.runs],
-            "iterations": int(steps[-1]) + 1 if len(steps) else 0,
-            "final_task_loss": {**_interval(mean, low, high, n), "n": n},
-            f"last{FINAL_WINDOW}_task_loss": {
-                **_interval(window_mean, window_low, window_high, finite_window.size),
-                "per_seed": [_number(v) for v in window],
-                "best": _number(finite_window.min()) if finite_window.size else None,
-                "worst": _number(finite_window.max()) if finite_window.size else None}})
+        entries.append(
+            {
+                "robot": group.robot,
+                "label": group.label,
+                "observer": group.runs[0].observer,
+                "seeds": group.n_seeds,
+                "runs": [_relative(run.path, source) for run in group.runs],
+                "iterations": int(steps[-1]) + 1 if len(steps) else 0,
+                "final_task_loss": {**_interval(mean, low, high, n), "n": n},
+                f"last{FINAL_WINDOW}_task_loss": {
+                    **_interval(window_mean, window_low, window_high, finite_window.size),
+                    "per_seed": [_number(v) for v in window],
+                    "best": _number(finite_window.min()) if finite_window.size else None,
+                    "worst": _number(finite_window.max()) if finite_window.size else None,
+                },
+            }
+        )
         if group.n_seeds < 2:
-            notes.append(f"{group.robot} / {group.label}: one seed only, so its curves have no "
-                         f"confidence band (the band needs at least 2 seeds)")
+            notes.append(
+                f"{group.robot} / {group.label}: one seed only, so its curves have no "
+                f"confidence band (the band needs at least 2 seeds)"
+            )
         notes += _health_notes(group, source) + _missing_notes(group, steps, values)
     best = {}
     for robot in dict.fromkeys(e["robot"] for e in entries):
-        ranked = sorted((e for e in entries
-                         if e["robot"] == robot and e["final_task_loss"]["mean"] is not None),
-                        key=lambda e: e["final_task_loss"]["mean"])
+        ranked = sorted(
+            (e for e in entries if e["robot"] == robot and e["final_task_loss"]["mean"] is not None),
+            key=lambda e: e["final_task_loss"]["mean"],
+        )
         if not ranked:
             continue
         # Only the best and the runner-up are compared; a label without an interval (one seed)
         # makes the comparison impossible to judge, not a win.
         no_interval = [e["label"] for e in ranked[:2] if e["final_task_loss"]["low"] is None]
-        overlaps = (len(ranked) > 1 and not no_interval and
-                    ranked[1]["final_task_loss"]["low"] <= ranked[0]["final_task_loss"]["high"])
-        best[robot] = {"label": ranked[0]["label"], "compared": len(ranked),
-                       "overlaps_runner_up": bool(overlaps),
-                       "no_interval": no_interval if len(ranked) > 1 else []}
+        overlaps = (
+            len(ranked) > 1
+            and not no_interval
+            and ranked[1]["final_task_loss"]["low"] <= ranked[0]["final_task_loss"]["high"]
+        )
+        best[robot] = {
+            "label": ranked[0]["label"],
+            "compared": len(ranked),
+            "overlaps_runner_up": bool(overlaps),
+            "no_interval": no_interval if len(ranked) > 1 else [],
+        }
     return {
-        "source": str(source), "level": level,
-        "runs": [{"path": _relative(run.path, source), "robot": run.robot, "label": label,
-                  "observer": run.observer, "seeds": run.seeds, "records": len(run.records)}
-                 for run, label in _run_labels(runs, groups)],
-        "groups": entries, "best": best, "notes": notes}
+        "source": str(source),
+        "level": level,
+        "runs": [
+            {
+                "path": _relative(run.path, source),
+                "robot": run.robot,
+                "label": label,
+                "observer": run.observer,
+                "seeds": run.seeds,
+                "records": len(run.records),
+            }
+            for run, label in _run_labels(runs, groups)
+        ],
+        "groups": entries,
+        "best": best,
+        "notes": notes,
+    }
 
 
 def _run_labels(runs, groups):
@@ -165,20 +207,28 @@ def _run_labels(runs, groups):
 
 
 def _table1_markdown(rows: list[dict]) -> str:
-    lines = ["# Table 1: change of the task objective after retraining plus one optimization "
-             "step", "",
-             "retrain_change = task loss before the retraining − task loss after it and one "
-             "optimization step; negative: retraining cost progress (as in the paper). Mean and "
-             "sample standard deviation over seeds.", ""]
+    lines = [
+        "# Table 1: change of the task objective after retraining plus one optimization step",
+        "",
+        "retrain_change = task loss before the retraining − task loss after it and one "
+        "optimization step; negative: retraining cost progress (as in the paper). Mean and "
+        "sample standard deviation over seeds.",
+        "",
+    ]
     if not rows:
-        lines.append("No retraining measurements: they need a learned observer (vae, ae) with "
-                     "learning phases (not one-shot or simultaneous), at least two episodes and "
-                     "two iterations per episode.")
+        lines.append(
+            "No retraining measurements: they need a learned observer (vae, ae) with "
+            "learning phases (not one-shot or simultaneous), at least two episodes and "
+            "two iterations per episode."
+        )
     for robot, label in dict.fromkeys((r["robot"], r["label"]) for r in rows):
-        lines += [f"## {robot} — {label}", "", "| retrain | mean | std | n |",
-                  "|---:|---:|---:|---:|"]
-        lines += [f"| {r['retrain']} | {format_number(r['mean'], '.3e')} | {format_number(r['std'], '.3e')} | "
-                  f"{r['n']} |" for r in rows if (r["robot"], r["label"]) == (robot, label)]
+        lines += [f"## {robot} — {label}", "", "| retrain | mean | std | n |", "|---:|---:|---:|---:|"]
+        lines += [
+            f"| {r['retrain']} | {format_number(r['mean'], '.3e')} | {format_number(r['std'], '.3e')} | "
+            f"{r['n']} |"
+            for r in rows
+            if (r["robot"], r["label"]) == (robot, label)
+        ]
         lines.append("")
     return "\n".join(lines).rstrip() + "\n"
 
@@ -189,52 +239,83 @@ def _write_table1(rows: list[dict], out: pathlib.Path) -> list[pathlib.Path]:
         writer = csv.DictWriter(file, fieldnames=["robot", "label", "retrain", "mean", "std", "n"])
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: ("" if isinstance(v, float) and not math.isfinite(v) else v)
-                             for k, v in row.items()})
+            writer.writerow(
+                {k: ("" if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
+            )
     return [out / "table1.md", out / "table1.csv"]
 
 
 def summary_markdown(summary: dict) -> str:
     """The human-readable summary of a report."""
     level = f"{summary['level']:.0%}"
-    lines = ["# litl report", "", f"Source: `{summary['source']}`", "",
-             f"{len(summary['runs'])} run(s), {len(summary['groups'])} label(s). Curves and "
-             f"intervals: mean over seeds with a {level} Student-t confidence interval.", "",
-             "## Runs", "", "| run | robot | label | seeds | records |", "|---|---|---|---|---:|"]
-    lines += [f"| `{r['path']}` | {r['robot']} | {r['label']} | "
-              f"{', '.join(map(str, r['seeds']))} | {r['records']} |" for r in summary["runs"]]
-    lines += ["", f"## Final task loss (lower is better; mean ± {level} CI half-width)", "",
-              "| robot | label | seeds | iterations | final task loss |",
-              "|---|---|---:|---:|---|"]
+    lines = [
+        "# litl report",
+        "",
+        f"Source: `{summary['source']}`",
+        "",
+        f"{len(summary['runs'])} run(s), {len(summary['groups'])} label(s). Curves and "
+        f"intervals: mean over seeds with a {level} Student-t confidence interval.",
+        "",
+        "## Runs",
+        "",
+        "| run | robot | label | seeds | records |",
+        "|---|---|---|---|---:|",
+    ]
+    lines += [
+        f"| `{r['path']}` | {r['robot']} | {r['label']} | "
+        f"{', '.join(map(str, r['seeds']))} | {r['records']} |"
+        for r in summary["runs"]
+    ]
+    lines += [
+        "",
+        f"## Final task loss (lower is better; mean ± {level} CI half-width)",
+        "",
+        "| robot | label | seeds | iterations | final task loss |",
+        "|---|---|---:|---:|---|",
+    ]
     for e in summary["groups"]:
         final = e["final_task_loss"]
         half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else " (one seed, no CI)"
-        lines.append(f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | "
-                     f"{format_number(final['mean'])}{half} |")
-    lines += ["", f"## Final task loss, each seed's mean over its last {FINAL_WINDOW} iterations",
-              "", f"| robot | label | mean ± {level} CI half-width | best seed | worst seed | "
-              "per seed |", "|---|---|---|---|---|---|"]
+        lines.append(
+            f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | "
+            f"{format_number(final['mean'])}{half} |"
+        )
+    lines += [
+        "",
+        f"## Final task loss, each seed's mean over its last {FINAL_WINDOW} iterations",
+        "",
+        f"| robot | label | mean ± {level} CI half-width | best seed | worst seed | per seed |",
+        "|---|---|---|---|---|---|",
+    ]
     for e in summary["groups"]:
         window = e[f"last{FINAL_WINDOW}_task_loss"]
-        half = ("" if window["half_width"] is None
-                else f" ± {format_number(window['half_width'])}")
-        lines.append(f"| {e['robot']} | {e['label']} | {format_number(window['mean'])}{half} | "
-                     f"{format_number(window['best'])} | {format_number(window['worst'])} | "
-                     f"{', '.join(format_number(v) for v in window['per_seed'])} |")
+        half = "" if window["half_width"] is None else f" ± {format_number(window['half_width'])}"
+        lines.append(
+            f"| {e['robot']} | {e['label']} | {format_number(window['mean'])}{half} | "
+            f"{format_number(window['best'])} | {format_number(window['worst'])} | "
+            f"{', '.join(format_number(v) for v in window['per_seed'])} |"
+        )
     lines += ["", "## Best label", ""]
     for robot, best in summary["best"].items():
         unjudged = unjudged_reason(best)
         if best["compared"] < 2:
             lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
         elif unjudged:
-            lines.append(f"- {robot}: {best['label']} has the lowest mean final task loss of "
-                         f"{best['compared']} labels; {unjudged}.")
+            lines.append(
+                f"- {robot}: {best['label']} has the lowest mean final task loss of "
+                f"{best['compared']} labels; {unjudged}."
+            )
         else:
-            caveat = (" — but its confidence interval overlaps the runner-up's, so the "
-                      "difference is not clear at this level" if best["overlaps_runner_up"]
-                      else "; its confidence interval does not overlap the runner-up's")
-            lines.append(f"- {robot}: **{best['label']}** has the lowest final task loss of "
-                         f"{best['compared']} labels{caveat}.")
+            caveat = (
+                " — but its confidence interval overlaps the runner-up's, so the "
+                "difference is not clear at this level"
+                if best["overlaps_runner_up"]
+                else "; its confidence interval does not overlap the runner-up's"
+            )
+            lines.append(
+                f"- {robot}: **{best['label']}** has the lowest final task loss of "
+                f"{best['compared']} labels{caveat}."
+            )
     lines += ["", "## Files", ""] + [f"- `{name}`" for name in summary["files"]]
     lines += ["", "## Notes", ""] + ([f"- {note}" for note in summary["notes"]] or ["- none"])
     return "\n".join(lines) + "\n"
@@ -256,37 +337,39 @@ def write_report(source, out=None, level: float = 0.9) -> Report:
     loaded = load_runs(source)
     runs = [run for run in loaded if run.records]
     if not runs:
-        raise ReportError(f"the {len(loaded)} run(s) in {source} have no metrics yet (empty "
-                          f"metrics.jsonl); wait for the first optimization iteration")
+        raise ReportError(
+            f"the {len(loaded)} run(s) in {source} have no metrics yet (empty "
+            f"metrics.jsonl); wait for the first optimization iteration"
+        )
     out = pathlib.Path(out) if out is not None else source
     out.mkdir(parents=True, exist_ok=True)
     groups = group_runs(runs)
     summary = summarize(runs, groups, source, level)
-    summary["notes"] = [f"{_relative(run.path, source)} has no metrics yet; left out"
-                        for run in loaded if not run.records] + summary["notes"]
+    summary["notes"] = [
+        f"{_relative(run.path, source)} has no metrics yet; left out" for run in loaded if not run.records
+    ] + summary["notes"]
     colors = figures.label_colors([g.label for g in groups])
     task_curves = curves(groups, "task_loss", level)
     written = []
     if task_curves:
         written.append(figures.plot_task_loss(task_curves, out / "task_loss.png", colors, level))
     else:
-        summary["notes"].append("no iteration of any seed finished healthy (all skipped): "
-                                "task_loss.png was not written")
+        summary["notes"].append(
+            "no iteration of any seed finished healthy (all skipped): task_loss.png was not written"
+        )
     several = [g for g in groups if len(components(g)) > 1]
     if several:
-        component_curves = [c for g in several for key in components(g)
-                            for c in curves([g], key, level)]
-        written.append(figures.plot_components(component_curves, out / "components.png",
-                                               colors, level))
+        component_curves = [c for g in several for key in components(g) for c in curves([g], key, level)]
+        written.append(figures.plot_components(component_curves, out / "components.png", colors, level))
     learned = [g for g in groups if g.learned]
     val = curves(learned, "recon_loss_val", level)
     train = curves(learned, "recon_loss_train", level)
     if val or train:
-        written.append(figures.plot_recon_loss(val, train, out / "recon_loss.png", colors,
-                                               level))
+        written.append(figures.plot_recon_loss(val, train, out / "recon_loss.png", colors, level))
     else:
-        summary["notes"].append("no learned observer (vae, ae) recorded a reconstruction loss: "
-                                "recon_loss.png was not written")
+        summary["notes"].append(
+            "no learned observer (vae, ae) recorded a reconstruction loss: recon_loss.png was not written"
+        )
     per_step = figures.plot_recon_sgd(learned, out / "recon_sgd.png", colors) if learned else None
     if per_step:
         written.append(per_step)
@@ -294,8 +377,7 @@ def write_report(source, out=None, level: float = 0.9) -> Report:
     written += _write_table1(rows, out)
     if not rows:
         summary["notes"].append("no retraining measurements (retrain_change): Table 1 is empty")
-    summary["table1"] = [{k: (_number(v) if isinstance(v, float) else v) for k, v in r.items()}
-                         for r in rows]
+    summary["table1"] = [{k: (_number(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows]
     summary["files"] = [p.name for p in written] + ["summary.md", "summary.json"]
     (out / "summary.md").write_text(summary_markdown(summary))
     (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")

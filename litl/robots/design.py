@@ -50,18 +50,22 @@ class Material:
     def __post_init__(self):
         object.__setattr__(self, "youngs_modulus_bounds", tuple(self.youngs_modulus_bounds))
         if len(self.youngs_modulus_bounds) != 2:
-            raise ConfigError(f"youngs_modulus_bounds must be (E_min, E_max), got "
-                              f"{self.youngs_modulus_bounds}")
+            raise ConfigError(
+                f"youngs_modulus_bounds must be (E_min, E_max), got {self.youngs_modulus_bounds}"
+            )
         low, high = self.youngs_modulus_bounds
         if not (0 < low <= self.youngs_modulus <= high < np.inf):
             raise ConfigError(
                 f"need 0 < E_min <= youngs_modulus <= E_max, got E = {self.youngs_modulus}, "
-                f"bounds {self.youngs_modulus_bounds}")
+                f"bounds {self.youngs_modulus_bounds}"
+            )
         if not -1 < self.poisson_ratio < 0.5:
             raise ConfigError(f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio}")
         if not (self.density > 0 and np.isfinite(self.actuator_strength)):
-            raise ConfigError(f"density must be > 0 and actuator_strength finite, got "
-                              f"{self.density}, {self.actuator_strength}")
+            raise ConfigError(
+                f"density must be > 0 and actuator_strength finite, got "
+                f"{self.density}, {self.actuator_strength}"
+            )
 
     def max_wave_speed(self) -> float:
         """The fastest elastic wave at E_max, actuators counted as extra stiffness (as

@@ -26,15 +26,14 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.shapes import LabelMerger, check_labels, lattice
 
-ACTUATOR_COLOURS = ("#ff0000", "#0000ff", "#ffff00", "#ff00ff", "#00ffff", "#ff8000", "#8000ff",
-                    "#00ff00")
+ACTUATOR_COLOURS = ("#ff0000", "#0000ff", "#ffff00", "#ff00ff", "#00ffff", "#ff8000", "#8000ff", "#00ff00")
 EMPTY_COLOURS = ("#ffffff",)
 LEGEND_KEYS = {"actuator", "fiber", "region", "groups", "pinned"}
 
@@ -52,7 +51,7 @@ def _colour(key) -> tuple[int, int, int]:
     if len(text) != 7 or text[0] != "#":
         raise LayoutError(f"legend colour {key!r} must be written '#rrggbb'")
     try:
-        return tuple(int(text[i:i + 2], 16) for i in (1, 3, 5))
+        return tuple(int(text[i : i + 2], 16) for i in (1, 3, 5))
     except ValueError:
         raise LayoutError(f"legend colour {key!r} is not hexadecimal '#rrggbb'") from None
 
@@ -63,12 +62,13 @@ def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
         legend = default_legend()
     elif not isinstance(legend, Mapping):
         try:
-            legend = json.loads(open(legend).read() if not hasattr(legend, "read_text")
-                                else legend.read_text())
+            legend = json.loads(
+                open(legend).read() if not hasattr(legend, "read_text") else legend.read_text()
+            )
         except (OSError, json.JSONDecodeError) as error:
             raise LayoutError(f"cannot read legend {legend}: {error}") from None
         if not isinstance(legend, dict):
-            raise LayoutError("a legend file must hold a JSON object {\"#rrggbb\": {...}}")
+            raise LayoutError('a legend file must hold a JSON object {"#rrggbb": {...}}')
     parsed = {}
     for key, role in legend.items():
         rgb = _colour(key)
@@ -77,8 +77,9 @@ def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
             continue
         if not isinstance(role, Mapping) or set(role) - LEGEND_KEYS:
             raise LayoutError(
-                f"legend entry {key}: {role!r} must be \"empty\" or an object with keys from "
-                f"{sorted(LEGEND_KEYS)}")
+                f'legend entry {key}: {role!r} must be "empty" or an object with keys from '
+                f"{sorted(LEGEND_KEYS)}"
+            )
         parsed[rgb] = dict(role)
     return parsed
 
@@ -97,8 +98,9 @@ def read_image(path) -> tuple[np.ndarray, np.ndarray]:
     return rgba[..., :3], rgba[..., 3] >= 128
 
 
-def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_cell: int = 2,
-                       source: str = "image") -> Layout:
+def layout_from_pixels(
+    rgb, opaque, width: float, dx: float, legend=None, per_cell: int = 2, source: str = "image"
+) -> Layout:
     """Layout from an RGB pixel array (H, W, 3), row 0 at the top; see `layout_from_png`."""
     roles = read_legend(legend)
     rgb = np.asarray(rgb, np.uint8)
@@ -111,7 +113,7 @@ def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_ce
     if empty.all():
         raise LayoutError(f"{source} has no robot pixels: everything is white, transparent or empty")
     rows, cols = np.nonzero(~empty)
-    rgb, empty = (a[rows.min():rows.max() + 1, cols.min():cols.max() + 1] for a in (rgb, empty))
+    rgb, empty = (a[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1] for a in (rgb, empty))
     known = np.zeros(empty.shape, bool)
     for colour in roles:
         known |= np.all(rgb == colour, axis=-1)
@@ -122,7 +124,8 @@ def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_ce
         raise LayoutError(
             f"{source}: {int(unknown.sum())} pixels have colours not in the legend, e.g. "
             f"{found[:5]} (first at row {r + rows.min()}, column {c + cols.min()}). Add them to the "
-            f"legend, or repaint them with a palette colour (draw without anti-aliasing).")
+            f"legend, or repaint them with a palette colour (draw without anti-aliasing)."
+        )
     if not (np.isfinite(width) and width > 0):
         raise LayoutError(f"the robot's width must be a positive length, got {width!r}")
     height_px, width_px = empty.shape
@@ -147,12 +150,21 @@ def layout_from_pixels(rgb, opaque, width: float, dx: float, legend=None, per_ce
             fiber = check_labels(actuator, fiber, region, dim=2)
         except LayoutError as error:
             raise LayoutError(f"legend entry {name}: {error}") from None
-        labels.add(name, mask, actuator, fiber, region, tuple(role.get("groups", ())),
-                   bool(role.get("pinned", False)), points)
+        labels.add(
+            name,
+            mask,
+            actuator,
+            fiber,
+            region,
+            tuple(role.get("groups", ())),
+            bool(role.get("pinned", False)),
+            points,
+        )
     if not labels.occupied.any():
         raise LayoutError(
             f"{source} is too small for dx={dx:g}: no particle landed on a robot pixel; make the "
-            f"robot wider or refine dx")
+            f"robot wider or refine dx"
+        )
     return labels.layout(points, spacing**2)
 
 

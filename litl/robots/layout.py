@@ -6,10 +6,11 @@ A layout is plain numpy (built once, outside jit). Builders (`litl.robots.shapes
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import dataclasses
 
 import numpy as np
+
+from litl.errors import UserError
 
 
 class LayoutError(UserError, ValueError):
@@ -65,14 +66,14 @@ class Layout:
             raise LayoutError(f"actuator ids must be -1 or in [0, {m}) for {m} fiber directions")
         used = np.unique(self.actuator[self.actuator >= 0])
         if len(used) != m:
-            raise LayoutError(
-                f"actuators {sorted(set(range(m)) - set(used.tolist()))} have no particles")
+            raise LayoutError(f"actuators {sorted(set(range(m)) - set(used.tolist()))} have no particles")
         if m and not np.allclose(np.linalg.norm(fiber, axis=1), 1.0):
             raise LayoutError("fiber directions must be unit vectors")
         regions = np.unique(self.region)
         if regions[0] < 0 or len(regions) != regions[-1] + 1:
             raise LayoutError(
-                f"design regions must be numbered 0 ... R-1 with particles in each; got {regions.tolist()}")
+                f"design regions must be numbered 0 ... R-1 with particles in each; got {regions.tolist()}"
+            )
         groups = {}
         for name, indices in dict(self.groups).items():
             indices = np.unique(np.asarray(indices, np.int64))
@@ -103,7 +104,7 @@ class Layout:
         """Lower and upper corner (d,) of the particles' bounding box."""
         return self.positions.min(axis=0), self.positions.max(axis=0)
 
-    def translated(self, offset) -> "Layout":
+    def translated(self, offset) -> Layout:
         """The same layout moved by `offset` (d,)."""
         return dataclasses.replace(self, positions=self.positions + np.asarray(offset, np.float64))
 
@@ -115,7 +116,7 @@ class Layout:
         mask[self.groups[name]] = True
         return mask
 
-    def extruded(self, depth: float, spacing: float) -> "Layout":
+    def extruded(self, depth: float, spacing: float) -> Layout:
         """A 3D layout: this 2D layout repeated in layers of `spacing` over [0, depth] along axis 2.
 
         Fiber directions get a zero third component; groups, regions and pins carry over.

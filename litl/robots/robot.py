@@ -16,7 +16,12 @@ from litl.robots.design import DesignSpace, Material
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.tasks import Task, make_task_loss
 from litl.sim import (
-    Body, ConfigError, SimConfig, SimState, check_actuation, check_time_step,
+    Body,
+    ConfigError,
+    SimConfig,
+    SimState,
+    check_actuation,
+    check_time_step,
 )
 
 
@@ -93,8 +98,12 @@ class Robot:
     @property
     def design_space(self) -> DesignSpace:
         """The co-design variables φ: bounds, initial value, projection, map to `Design`."""
-        return DesignSpace(region=self.layout.region, n_regions=self.n_regions,
-                           n_actuators=self.n_actuators, material=self.material)
+        return DesignSpace(
+            region=self.layout.region,
+            n_regions=self.n_regions,
+            n_actuators=self.n_actuators,
+            material=self.material,
+        )
 
     def with_material(self, material: Material) -> Robot:
         """This robot with another `Material`; dt follows the stiffest allowed design
@@ -102,15 +111,17 @@ class Robot:
         duration = self.steps * self.config.dt
         dt = material.time_step(self.config.dx)
         config = dataclasses.replace(self.config, dt=dt)
-        return dataclasses.replace(self, material=material, config=config,
-                                   steps=max(int(round(duration / dt)), 1))
+        return dataclasses.replace(
+            self, material=material, config=config, steps=max(int(round(duration / dt)), 1)
+        )
 
     def initial_state(self, dtype=jnp.float32) -> SimState:
         return SimState.at_rest(jnp.asarray(self.layout.positions, dtype))
 
     def scene(self, dtype=jnp.float32) -> Scene:
-        return Scene(self.config, self.body(dtype), self.design_space.to_design(dtype=dtype),
-                     self.initial_state(dtype))
+        return Scene(
+            self.config, self.body(dtype), self.design_space.to_design(dtype=dtype), self.initial_state(dtype)
+        )
 
     def task_loss(self, task: Task | None = None):
         """`loss(initial_state, final_state) -> (total, components)` for `task` (default: own)."""
@@ -132,11 +143,11 @@ def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:
         f"{name} does not fit the grid: its particles span {np.round(low, 4).tolist()} to "
         f"{np.round(high, 4).tolist()}, but must stay within {np.round(lower, 4).tolist()} to "
         f"{np.round(upper, 4).tolist()} (inside walls of {thickness} cells, dx = {config.dx:g}). "
-        f"Scale the robot down, move it, or enlarge grid_shape.")
+        f"Scale the robot down, move it, or enlarge grid_shape."
+    )
 
 
-def place(layout: Layout, config: SimConfig, x: float | None = None, lift: float = 0.5,
-          lower=None) -> Layout:
+def place(layout: Layout, config: SimConfig, x: float | None = None, lift: float = 0.5, lower=None) -> Layout:
     """Move a layout into the domain.
 
     By default its bounding box is centred across the domain in every axis but "up" (axis 1); it

@@ -14,7 +14,8 @@ Shapes are dimension-generic where it makes sense: `Box` and `Ellipse` work in 2
 from __future__ import annotations
 
 import dataclasses
-from typing import Protocol, Sequence
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -84,7 +85,8 @@ class Ellipse:
         if center.size not in (2, 3) or radii.shape != center.shape or np.any(radii <= 0):
             raise LayoutError(
                 f"an Ellipse needs a 2D/3D center and one positive radius (or one per axis), "
-                f"got center {self.center}, radii {self.radii}")
+                f"got center {self.center}, radii {self.radii}"
+            )
         object.__setattr__(self, "center", tuple(center))
         object.__setattr__(self, "radii", tuple(radii))
 
@@ -182,13 +184,17 @@ class Voxels:
         occupied = np.asarray(self.occupied)
         if occupied.ndim not in (2, 3) or occupied.dtype != bool:
             raise LayoutError(
-                f"Voxels need a 2D or 3D bool array, got {occupied.dtype} of shape {occupied.shape}")
+                f"Voxels need a 2D or 3D bool array, got {occupied.dtype} of shape {occupied.shape}"
+            )
         if not occupied.any():
             raise LayoutError("the voxel array has no occupied cell")
         if not (np.isfinite(self.voxel_size) and self.voxel_size > 0):
             raise LayoutError(f"voxel_size must be positive, got {self.voxel_size!r}")
-        lower = np.zeros(occupied.ndim) if self.lower is None else _vector(
-            self.lower, "Voxels lower corner", occupied.ndim)
+        lower = (
+            np.zeros(occupied.ndim)
+            if self.lower is None
+            else _vector(self.lower, "Voxels lower corner", occupied.ndim)
+        )
         object.__setattr__(self, "occupied", occupied)
         object.__setattr__(self, "lower", tuple(lower))
 
@@ -235,15 +241,17 @@ class Part:
     def __post_init__(self):
         groups = (self.groups,) if isinstance(self.groups, str) else tuple(self.groups)
         object.__setattr__(self, "groups", groups)
-        object.__setattr__(self, "fiber",
-                           check_labels(self.actuator, self.fiber, self.region, self.shape.dim))
+        object.__setattr__(
+            self, "fiber", check_labels(self.actuator, self.fiber, self.region, self.shape.dim)
+        )
 
 
 def check_labels(actuator, fiber, region, dim: int):
     """Validate a part's (or a legend colour's) labels; return the unit fiber (or None)."""
     for name, value in (("actuator", actuator), ("region", region)):
-        if value is not None and (isinstance(value, bool)
-                                  or not isinstance(value, (int, np.integer)) or value < 0):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0
+        ):
             raise LayoutError(f"{name} id must be an integer >= 0 or None, got {value!r}")
     if fiber is None:
         return None
@@ -291,9 +299,11 @@ def sample_parts(parts: Sequence[Part], dx: float, per_cell: int = 2) -> Layout:
         if not inside.any():
             raise LayoutError(
                 f"part {index} ({type(part.shape).__name__}) covers no particle at spacing "
-                f"{spacing:g}: make it larger than dx / per_cell or refine dx")
-        labels.add(f"part {index}", inside, part.actuator, part.fiber, part.region, part.groups, part.pinned,
-                   points)
+                f"{spacing:g}: make it larger than dx / per_cell or refine dx"
+            )
+        labels.add(
+            f"part {index}", inside, part.actuator, part.fiber, part.region, part.groups, part.pinned, points
+        )
     return labels.layout(points, spacing ** points.shape[1])
 
 
@@ -328,14 +338,14 @@ class LabelMerger:
                 raise LayoutError(
                     f"conflicting labels: {source} and {self.sources[origin[at]]} both cover the particle "
                     f"at {np.round(points[at], 6).tolist()} but give it {name} {value} and "
-                    f"{labels[at]}; make the parts disjoint or give them the same {name}")
+                    f"{labels[at]}; make the parts disjoint or give them the same {name}"
+                )
             labels[mask] = value
             origin[mask] = len(self.sources) - 1
         if actuator is not None:
             known = self.fibers.get(int(actuator))
             if fiber is not None and known is not None and not np.allclose(known, fiber):
-                raise LayoutError(
-                    f"actuator {actuator} is given two fiber directions, {known} and {fiber}")
+                raise LayoutError(f"actuator {actuator} is given two fiber directions, {known} and {fiber}")
             if fiber is not None or known is None:
                 self.fibers[int(actuator)] = fiber
         self.pinned |= mask & bool(pinned)
@@ -351,8 +361,9 @@ class LabelMerger:
             raise LayoutError(f"actuator ids must be 0, 1, ..., m-1 without gaps; missing {missing}")
         dim = points.shape[1]
         up = np.eye(dim)[1]
-        fiber = np.asarray([self.fibers[i] if self.fibers[i] is not None else up for i in ids],
-                           np.float64).reshape(len(ids), dim)
+        fiber = np.asarray(
+            [self.fibers[i] if self.fibers[i] is not None else up for i in ids], np.float64
+        ).reshape(len(ids), dim)
         region = np.where(self.region[keep] >= 0, self.region[keep], 0).astype(np.int32)
         return Layout(
             positions=points[keep],

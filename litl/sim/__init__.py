@@ -8,14 +8,37 @@ run whole rollouts with `make_rollout` (pure, jittable, differentiable) or `simu
 from litl.sim.config import Boundary, ConfigError, SimConfig, Wall
 from litl.sim.rollout import Health, Trajectory, centroid, make_rollout
 from litl.sim.safety import (
-    SimulationError, check_actuation, check_time_step, raise_if_unhealthy, validate, wave_speed,
+    SimulationError,
+    check_actuation,
+    check_time_step,
+    raise_if_unhealthy,
+    validate,
+    wave_speed,
 )
 from litl.sim.simulate import simulate
 from litl.sim.state import Body, Design, Grid, SimState
 from litl.sim.step import make_step, rasterize
 
 __all__ = [
-    "Body", "Boundary", "ConfigError", "Design", "Grid", "Health", "SimConfig", "SimState",
-    "SimulationError", "Trajectory", "Wall", "centroid", "check_actuation", "check_time_step",
-    "make_rollout", "make_step", "raise_if_unhealthy", "rasterize", "simulate", "validate", "wave_speed",
+    "Body",
+    "Boundary",
+    "ConfigError",
+    "Design",
+    "Grid",
+    "Health",
+    "SimConfig",
+    "SimState",
+    "SimulationError",
+    "Trajectory",
+    "Wall",
+    "centroid",
+    "check_actuation",
+    "check_time_step",
+    "make_rollout",
+    "make_step",
+    "raise_if_unhealthy",
+    "rasterize",
+    "simulate",
+    "validate",
+    "wave_speed",
 ]

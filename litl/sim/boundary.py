@@ -67,8 +67,7 @@ def apply_boundary(config: SimConfig, velocity):
             # Coulomb: the tangential speed drops by mu * |normal speed|, never below zero.
             reduced = jnp.maximum(speed - wall.friction * jnp.abs(normal_speed), 0.0)
             factor = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
-            velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0)
-                        for a, v in enumerate(velocity)]
+            velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0) for a, v in enumerate(velocity)]
         velocity[axis] = jnp.where(hit, 0.0, normal_speed)
     if boundary.pinned_boxes:
         pinned = jnp.asarray(pinned_node_mask(config))

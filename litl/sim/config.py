@@ -14,10 +14,11 @@ Conventions:
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import dataclasses
 import math
 from typing import Literal
+
+from litl.errors import UserError
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
 ConstitutiveModel = Literal["fixed_corotated", "neo_hookean"]
@@ -83,7 +84,7 @@ class Boundary:
         sides: Wall | WallKind = "sticky",
         thickness: int = 3,
         pinned_boxes=(),
-    ) -> "Boundary":
+    ) -> Boundary:
         """A closed box: `floor` on the low face of axis 1, `sides` on every other face."""
         floor = floor if isinstance(floor, Wall) else Wall(floor)
         sides = sides if isinstance(sides, Wall) else Wall(sides)
@@ -144,9 +145,7 @@ class SimConfig:
         object.__setattr__(self, "gravity", tuple(float(g) for g in self.gravity))
         dim = len(self.grid_shape)
         if dim not in (2, 3):
-            raise ConfigError(
-                f"grid_shape must have 2 or 3 entries (the dimension), got {self.grid_shape!r}"
-            )
+            raise ConfigError(f"grid_shape must have 2 or 3 entries (the dimension), got {self.grid_shape!r}")
         for n in self.grid_shape:
             if not isinstance(n, int) or n < 8:
                 raise ConfigError(
@@ -158,12 +157,12 @@ class SimConfig:
                 raise ConfigError(f"{name} must be a positive finite number, got {value!r}")
         if len(self.gravity) != dim or not all(math.isfinite(g) for g in self.gravity):
             raise ConfigError(
-                f"gravity must be a finite vector with {dim} entries (one per axis), "
-                f"got {self.gravity!r}"
+                f"gravity must be a finite vector with {dim} entries (one per axis), got {self.gravity!r}"
             )
         if self.constitutive_model not in CONSTITUTIVE_MODELS:
-            raise ConfigError(f"unknown constitutive_model {self.constitutive_model!r}; choose one "
-                              f"of {CONSTITUTIVE_MODELS}")
+            raise ConfigError(
+                f"unknown constitutive_model {self.constitutive_model!r}; choose one of {CONSTITUTIVE_MODELS}"
+            )
         if self.buffering not in BUFFERINGS:
             raise ConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
         if self.boundary is None:
@@ -179,9 +178,7 @@ class SimConfig:
             )
         for lo, hi in self.boundary.pinned_boxes:
             if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi)):
-                raise ConfigError(
-                    f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi"
-                )
+                raise ConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
 
     @property
     def dim(self) -> int:

@@ -16,7 +16,7 @@ drops the boundary's numerical noise.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import jax.numpy as jnp
 import numpy as np

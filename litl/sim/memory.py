@@ -22,7 +22,7 @@ from litl.sim.config import ConfigError
 # The default budget: this fraction of the device's memory (a GPU's, or the machine's RAM on
 # the CPU); the rest is for the learning phase, the replay buffer and XLA's scratch space.
 MEMORY_FRACTION = 0.5
-GIB = 2 ** 30
+GIB = 2**30
 
 
 class MemoryBudgetError(ConfigError):
@@ -37,7 +37,7 @@ def device_memory_bytes(device=None) -> int:
     stats = None
     try:
         stats = device.memory_stats()
-    except Exception:          # CPU devices may not report, or raise, depending on the jaxlib
+    except Exception:  # CPU devices may not report, or raise, depending on the jaxlib
         stats = None
     if stats and stats.get("bytes_limit"):
         return int(stats["bytes_limit"])
@@ -92,14 +92,17 @@ def stored_carries(steps: int, checkpoint_every: int | None) -> int:
 
 def square_root_segment(steps: int, unit: int) -> int:
     """A multiple of `unit` near √steps that keeps the fewest carries (at least `unit`)."""
-    candidates = {max(unit, unit * round(math.sqrt(steps) / unit)),
-                  max(unit, unit * math.floor(math.sqrt(steps) / unit)),
-                  unit * math.ceil(math.sqrt(steps) / unit)}
+    candidates = {
+        max(unit, unit * round(math.sqrt(steps) / unit)),
+        max(unit, unit * math.floor(math.sqrt(steps) / unit)),
+        unit * math.ceil(math.sqrt(steps) / unit),
+    }
     return min(sorted(candidates), key=lambda k: stored_carries(steps, k))
 
 
-def plan_checkpointing(steps: int, unit: int, carry_bytes: int, per_step_bytes: int,
-                       budget_bytes: int) -> CheckpointPlan:
+def plan_checkpointing(
+    steps: int, unit: int, carry_bytes: int, per_step_bytes: int, budget_bytes: int
+) -> CheckpointPlan:
     """No segments if the plain backward pass fits `budget_bytes`, else K ≈ √steps.
 
     Args:
@@ -121,5 +124,6 @@ def plan_checkpointing(steps: int, unit: int, carry_bytes: int, per_step_bytes: 
             f"GiB, and {segmented.backward_bytes / GIB:.3g} GiB with segments of "
             f"{segmented.checkpoint_every} steps, over the budget of {budget_bytes / GIB:.3g} "
             f"GiB per rollout (sim.memory_budget, divided among vmapped seeds): raise "
-            f"sim.memory_budget (GiB), or run fewer steps, particles or seeds per device")
+            f"sim.memory_budget (GiB), or run fewer steps, particles or seeds per device"
+        )
     return segmented

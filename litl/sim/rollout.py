@@ -12,14 +12,16 @@ returns one actuation value per actuator:
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 from flax import struct
 
 from litl.sim.config import SimConfig
-from litl.sim.fields import GridField, grid_velocity as velocity_field
+from litl.sim.fields import GridField
+from litl.sim.fields import grid_velocity as velocity_field
 from litl.sim.memory import CheckpointPlan, default_budget_bytes, plan_checkpointing
 from litl.sim.state import Body, Design, SimState
 from litl.sim.step import Components, make_component_step, rasterize
@@ -40,10 +42,10 @@ class Health:
     first_escape_step: jnp.ndarray
 
     @classmethod
-    def ok(cls) -> "Health":
+    def ok(cls) -> Health:
         return cls(jnp.array(-1, jnp.int32), jnp.array(-1, jnp.int32))
 
-    def record(self, config: SimConfig, state: Components, step_index) -> "Health":
+    def record(self, config: SimConfig, state: Components, step_index) -> Health:
         """Update with the state after step `step_index` (per-component form, see `Components`)."""
         # One reduction each: NaN and infinity survive the elementwise sum and the logical and.
         total = sum([*state.x, *state.v, *(f for row in state.F for f in row)])
@@ -144,32 +146,38 @@ def make_rollout(
         not isinstance(snapshot_stride, int) or not 0 < snapshot_stride <= steps
     ):
         raise ValueError(
-            f"snapshot_stride must be an integer in [1, steps={steps}] or None, "
-            f"got {snapshot_stride!r}"
+            f"snapshot_stride must be an integer in [1, steps={steps}] or None, got {snapshot_stride!r}"
         )
-    if checkpoint_every != "auto" and checkpoint_every is not None and (
-        isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int)
-        or checkpoint_every <= 0 or checkpoint_every % (snapshot_stride or 1)
+    if (
+        checkpoint_every != "auto"
+        and checkpoint_every is not None
+        and (
+            isinstance(checkpoint_every, bool)
+            or not isinstance(checkpoint_every, int)
+            or checkpoint_every <= 0
+            or checkpoint_every % (snapshot_stride or 1)
+        )
     ):
         raise ValueError(
-            f"checkpoint_every must be \"auto\", a positive integer multiple of snapshot_stride "
+            f'checkpoint_every must be "auto", a positive integer multiple of snapshot_stride '
             f"({snapshot_stride}) or None, got {checkpoint_every!r}"
         )
-    if memory_budget is not None and (isinstance(memory_budget, bool) or
-                                      not isinstance(memory_budget, (int, float)) or
-                                      not memory_budget > 0):
-        raise ValueError(f"memory_budget must be a positive number of bytes or None, got "
-                         f"{memory_budget!r}")
+    if memory_budget is not None and (
+        isinstance(memory_budget, bool)
+        or not isinstance(memory_budget, (int, float))
+        or not memory_budget > 0
+    ):
+        raise ValueError(f"memory_budget must be a positive number of bytes or None, got {memory_budget!r}")
     step_fn = make_component_step(config, body, stress)
 
     def plan(carry, step_outputs, reads_field: bool) -> CheckpointPlan:
         """The segment length for this rollout's carry and per-step outputs (shapes only); the
         grid field is kept per step only when the policy reads it (else XLA drops it)."""
-        nbytes = lambda tree: sum(math.prod(leaf.shape) * leaf.dtype.itemsize
-                                  for leaf in jax.tree.leaves(tree))
+        nbytes = lambda tree: sum(
+            math.prod(leaf.shape) * leaf.dtype.itemsize for leaf in jax.tree.leaves(tree)
+        )
         carry_bytes = nbytes(carry) - (0 if reads_field else nbytes(carry[1]))
-        per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride
-                                           if snapshot_stride else 0)
+        per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride if snapshot_stride else 0)
         if checkpoint_every != "auto":
             return CheckpointPlan(checkpoint_every, steps, carry_bytes, per_step)
         budget = default_budget_bytes() if memory_budget is None else int(memory_budget)
@@ -185,10 +193,16 @@ def make_rollout(
             health = health.record(config, components, index)
             return (components, field(grid), health), (observe(components.pack()), actuation)
 
-        carry = (Components.unpack(initial_state), field(rasterize(config, body, initial_state, design)),
-                 Health.ok())
-        rollout.plan = plan(carry, jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1],
-                            _reads(lambda g: policy(policy_params, initial_state, g), carry[1]))
+        carry = (
+            Components.unpack(initial_state),
+            field(rasterize(config, body, initial_state, design)),
+            Health.ok(),
+        )
+        rollout.plan = plan(
+            carry,
+            jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1],
+            _reads(lambda g: policy(policy_params, initial_state, g), carry[1]),
+        )
         every = rollout.plan.checkpoint_every
         # Steps run in units (a snapshot is taken after each unit), units in segments (each
         # rematerialized as a whole when there are segments).
@@ -211,8 +225,7 @@ def make_rollout(
             run_segment = jax.checkpoint(run_segment)
 
         segment_steps = unit * units_per_segment
-        carry, (observed, snapshots) = jax.lax.scan(
-            run_segment, carry, segment_steps * _counter(n_segments))
+        carry, (observed, snapshots) = jax.lax.scan(run_segment, carry, segment_steps * _counter(n_segments))
         # Merge the leading `per` axes (an explicit size: -1 is ambiguous for a passive body's
         # (..., 0) actuation record).
         flatten = lambda a, per: a.reshape((math.prod(a.shape[:per]),) + a.shape[per:])
@@ -239,5 +252,5 @@ def make_rollout(
             health=health,
         )
 
-    rollout.plan = None     # set when the rollout is first traced
+    rollout.plan = None  # set when the rollout is first traced
     return rollout

@@ -6,9 +6,9 @@ These run outside jit on concrete values: `validate` and `check_time_step` befor
 
 from __future__ import annotations
 
-from litl.errors import UserError
 import numpy as np
 
+from litl.errors import UserError
 from litl.sim.config import ConfigError, SimConfig
 from litl.sim.state import Body, Design, SimState
 
@@ -89,7 +89,8 @@ def check_actuation(body: Body, design: Design) -> float:
             f"{float(stiffness[active][worst]):.4g} is an active strain of {ratio:.3g}, above "
             f"{MAX_ACTIVE_STRAIN}; particles would be crushed and inverted. Lower the actuator "
             f"strength, or raise Young's modulus (its lower bound, for co-design) so that "
-            f"lambda + 2 mu >= {needed:.4g}.")
+            f"lambda + 2 mu >= {needed:.4g}."
+        )
     return ratio
 
 
@@ -171,14 +172,26 @@ def raise_if_unhealthy(health, steps: int | None = None) -> None:
         where = f" (batch entry {index})" if nonfinite.size > 1 else ""
         found = []
         if out >= 0:
-            found.append((out, (
-                f"particles left the grid at step {out}{of}{where}: enlarge the grid, move the body "
-                f"away from the edges, or use closed walls instead of 'open' faces")))
+            found.append(
+                (
+                    out,
+                    (
+                        f"particles left the grid at step {out}{of}{where}: enlarge the grid, move the body "
+                        f"away from the edges, or use closed walls instead of 'open' faces"
+                    ),
+                )
+            )
         if bad >= 0:
-            found.append((bad, (
-                f"non-finite values (NaN/inf) first appeared at step {bad}{of}{where}: the "
-                f"simulation blew up; reduce dt, stiffness or actuator strength, or check the "
-                f"controller output")))
+            found.append(
+                (
+                    bad,
+                    (
+                        f"non-finite values (NaN/inf) first appeared at step {bad}{of}{where}: the "
+                        f"simulation blew up; reduce dt, stiffness or actuator strength, or check the "
+                        f"controller output"
+                    ),
+                )
+            )
         # The earlier failure is the cause; the later one usually its consequence.
         problems.extend(message for _, message in sorted(found, key=lambda item: item[0]))
     if problems:

@@ -29,7 +29,7 @@ class SimState:
     step: jnp.ndarray
 
     @classmethod
-    def at_rest(cls, positions, velocities=None) -> "SimState":
+    def at_rest(cls, positions, velocities=None) -> SimState:
         """A state with the given positions (n, d), zero affine field and F = I."""
         x = jnp.asarray(positions)
         n, d = x.shape
@@ -71,7 +71,7 @@ class Design:
         )
 
     @classmethod
-    def from_lame(cls, mu, lam, density, actuator_strength) -> "Design":
+    def from_lame(cls, mu, lam, density, actuator_strength) -> Design:
         """A design given by the Lamé parameters (arrays of shape (n,)) instead of E and nu."""
         mu, lam = jnp.asarray(mu), jnp.asarray(lam)
         return cls(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -50,8 +50,10 @@ def _grid_update(config: SimConfig, grid, particle_mass):
     # Gravity only where there is material: particles never read empty nodes, but the observer
     # does, and an empty grid must read as zero velocity (not g * dt everywhere).
     occupied = mass > 0
-    velocity = [v + jnp.where(occupied, jnp.asarray(config.dt * g, dtype), 0) if g else v
-                for v, g in zip(velocity, config.gravity)]
+    velocity = [
+        v + jnp.where(occupied, jnp.asarray(config.dt * g, dtype), 0) if g else v
+        for v, g in zip(velocity, config.gravity)
+    ]
     return apply_boundary(config, velocity), mass
 
 
@@ -71,16 +73,22 @@ class Components:
     step: jnp.ndarray
 
     @classmethod
-    def unpack(cls, state: SimState) -> "Components":
+    def unpack(cls, state: SimState) -> Components:
         return cls(
-            x=linalg.split_vec(state.x), v=linalg.split_vec(state.v),
-            C=linalg.split_mat(state.C), F=linalg.split_mat(state.F), step=state.step,
+            x=linalg.split_vec(state.x),
+            v=linalg.split_vec(state.v),
+            C=linalg.split_mat(state.C),
+            F=linalg.split_mat(state.F),
+            step=state.step,
         )
 
     def pack(self) -> SimState:
         return SimState(
-            x=linalg.stack_vec(self.x), v=linalg.stack_vec(self.v),
-            C=linalg.stack_mat(self.C), F=linalg.stack_mat(self.F), step=self.step,
+            x=linalg.stack_vec(self.x),
+            v=linalg.stack_vec(self.v),
+            C=linalg.stack_mat(self.C),
+            F=linalg.stack_mat(self.F),
+            step=self.step,
         )
 
 
@@ -128,9 +136,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         mu, lam = design.lame()
         F = linalg.matmul(linalg.add(linalg.identity(dim, mass), linalg.scale(state.C, dt)), state.F)
         activation, fiber = particle_activation(body, actuation, design)
-        tau = linalg.add(
-            stress_model(F, mu, lam), actuation_stress(F, activation, linalg.split_vec(fiber))
-        )
+        tau = linalg.add(stress_model(F, mu, lam), actuation_stress(F, activation, linalg.split_vec(fiber)))
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).
         stress_scale = (-dt * 4.0 / dx**2) * body.volume
         affine = linalg.add(linalg.scale(tau, stress_scale), linalg.scale(state.C, mass))
@@ -141,8 +147,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
             affine = linalg.materialize(affine, field_token)
         st = transfer.stencil(state.x, dx, config.grid_shape, node_token)
         momentum = [mass * v for v in state.v]
-        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape,
-                                          node_token)
+        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape, node_token)
         if node_token is not None:
             # In reverse mode: the grid's cotangent is formed once before the scatter's transpose
             # gathers it, instead of the grid update's backward being recomputed per read.
@@ -188,8 +193,12 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
     mass = design.density * body.volume
     st = transfer.stencil(linalg.split_vec(state.x), config.dx, config.grid_shape)
     grid = transfer.particles_to_grid(
-        st, mass, [mass * v for v in linalg.split_vec(state.v)],
-        linalg.scale(linalg.split_mat(state.C), mass), config.dx, config.grid_shape,
+        st,
+        mass,
+        [mass * v for v in linalg.split_vec(state.v)],
+        linalg.scale(linalg.split_mat(state.C), mass),
+        config.dx,
+        config.grid_shape,
     )
     velocity, grid_mass = _grid_velocity(config, grid, mass)
     velocity = apply_boundary(config, velocity)

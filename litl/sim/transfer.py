@@ -69,8 +69,9 @@ def stencil(x, dx, grid_shape, token=None) -> Stencil:
         node_weights.append(weight)
     if token is not None:
         node_weights = linalg.materialize(node_weights, token)
-    return Stencil(base=jnp.stack(bases, -1), weights=weights, node_weights=node_weights, fx=fx,
-                   inside=inside)
+    return Stencil(
+        base=jnp.stack(bases, -1), weights=weights, node_weights=node_weights, fx=fx, inside=inside
+    )
 
 
 def _window_numbers(dim):
@@ -84,9 +85,7 @@ def _raw_scatter(base, values, grid_shape):
         update_window_dims=window, inserted_window_dims=(), scatter_dims_to_operand_dims=axes
     )
     grid = jnp.zeros(tuple(grid_shape) + values.shape[-1:], values.dtype)
-    return jax.lax.scatter_add(
-        grid, base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS
-    )
+    return jax.lax.scatter_add(grid, base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS)
 
 
 def _raw_gather(base, grid):
@@ -95,7 +94,10 @@ def _raw_gather(base, grid):
         offset_dims=window, collapsed_slice_dims=(), start_index_map=axes
     )
     return jax.lax.gather(
-        grid, base, numbers, slice_sizes=(3,) * base.shape[-1] + grid.shape[-1:],
+        grid,
+        base,
+        numbers,
+        slice_sizes=(3,) * base.shape[-1] + grid.shape[-1:],
         mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
     )
 

@@ -11,13 +11,27 @@ The learned representation: `draw_snapshots` (Fig. 1), `draw_latent_sweeps` (Fig
 from litl.viz.animation import animate_rollout, record_rollout
 from litl.viz.gait import draw_gait, find_feet, measure_gait
 from litl.viz.robots import (
-    VizError, add_actuation_colorbar, draw, draw_robot, draw_robot_3d, particle_colors,
+    VizError,
+    add_actuation_colorbar,
+    draw,
+    draw_robot,
+    draw_robot_3d,
+    particle_colors,
     rollout_limits,
 )
 
 __all__ = [
-    "VizError", "add_actuation_colorbar", "animate_rollout", "draw", "draw_gait", "draw_robot",
-    "draw_robot_3d", "find_feet", "measure_gait", "particle_colors", "record_rollout",
+    "VizError",
+    "add_actuation_colorbar",
+    "animate_rollout",
+    "draw",
+    "draw_gait",
+    "draw_robot",
+    "draw_robot_3d",
+    "find_feet",
+    "measure_gait",
+    "particle_colors",
+    "record_rollout",
     "rollout_limits",
 ]
 
@@ -25,6 +39,10 @@ from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  #
 from litl.viz.saliency import animate_saliency, make_saliency, saliency  # noqa: E402
 
 __all__ += [
-    "animate_saliency", "draw_clusters", "draw_latent_sweeps", "draw_snapshots", "make_saliency",
+    "animate_saliency",
+    "draw_clusters",
+    "draw_latent_sweeps",
+    "draw_snapshots",
+    "make_saliency",
     "saliency",
 ]

@@ -21,7 +21,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from litl.viz.robots import (
-    VizError, draw_robot, draw_robot_3d, particle_colors, resolve, rollout_limits,
+    VizError,
+    draw_robot,
+    draw_robot_3d,
+    particle_colors,
+    resolve,
+    rollout_limits,
     to_plot_3d,
 )
 
@@ -33,11 +38,15 @@ def _check_rollout(name, layout, positions, actuation):
     actuation = np.asarray(actuation, np.float64)
     n, d, m = layout.n_particles, layout.dim, layout.n_actuators
     if positions.ndim != 3 or positions.shape[1:] != (n, d) or len(positions) == 0:
-        raise VizError(f"positions for {name!r} must have shape (T, n_particles, dim) = "
-                       f"(T, {n}, {d}) with T >= 1, got {positions.shape}")
+        raise VizError(
+            f"positions for {name!r} must have shape (T, n_particles, dim) = "
+            f"(T, {n}, {d}) with T >= 1, got {positions.shape}"
+        )
     if actuation.shape != (len(positions), m):
-        raise VizError(f"actuation for {name!r} must have shape (T, n_actuators) = "
-                       f"({len(positions)}, {m}) to match the positions, got {actuation.shape}")
+        raise VizError(
+            f"actuation for {name!r} must have shape (T, n_actuators) = "
+            f"({len(positions)}, {m}) to match the positions, got {actuation.shape}"
+        )
     return positions, actuation
 
 
@@ -45,14 +54,26 @@ def _writer(suffix: str, fps: float):
     if suffix == ".gif":
         return manimation.PillowWriter(fps=fps)
     if not manimation.writers.is_available("ffmpeg"):
-        raise VizError("writing .mp4 needs ffmpeg, which matplotlib cannot find: install it "
-                       "(e.g. `apt-get install ffmpeg` or `conda install ffmpeg`) or write a .gif")
+        raise VizError(
+            "writing .mp4 needs ffmpeg, which matplotlib cannot find: install it "
+            "(e.g. `apt-get install ffmpeg` or `conda install ffmpeg`) or write a .gif"
+        )
     return manimation.FFMpegWriter(fps=fps)
 
 
-def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: int = 1,
-                    dpi: int = 80, show_targets: bool = True, colorbar: bool = True,
-                    stiffness=None, stiffness_range=None) -> Path:
+def animate_rollout(
+    robot,
+    positions,
+    actuation,
+    path,
+    fps: float = 30,
+    stride: int = 1,
+    dpi: int = 80,
+    show_targets: bool = True,
+    colorbar: bool = True,
+    stiffness=None,
+    stiffness_range=None,
+) -> Path:
     """Write an animation of a rollout to `path` (``.gif`` always, ``.mp4`` with ffmpeg).
 
     Frame k shows ``positions[k * stride]`` with particles coloured by ``actuation[k * stride]``.
@@ -95,20 +116,35 @@ def animate_rollout(robot, positions, actuation, path, fps: float = 30, stride: 
     # A bare Figure (not pyplot's): nothing pops up in interactive sessions and nothing leaks.
     fig = Figure(figsize=(6.0, 5.0) if layout.dim == 3 else (6.0, 4.5), dpi=dpi)
     FigureCanvasAgg(fig)
-    coloring = ({"stiffness": stiffness, "stiffness_range": stiffness_range}
-                if stiffness is not None else {})
+    coloring = {"stiffness": stiffness, "stiffness_range": stiffness_range} if stiffness is not None else {}
     first_actuation = None if stiffness is not None else actuation[0]
     if layout.dim == 3:
         # Framed on the robot's path rather than the whole domain, where a walker is a speck.
-        ax = draw_robot_3d(robot, fig.add_subplot(projection="3d"), positions[0],
-                           first_actuation, show_targets, colorbar=colorbar,
-                           limits=rollout_limits(positions, config, targets=targets.values()),
-                           **coloring)
+        ax = draw_robot_3d(
+            robot,
+            fig.add_subplot(projection="3d"),
+            positions[0],
+            first_actuation,
+            show_targets,
+            colorbar=colorbar,
+            limits=rollout_limits(positions, config, targets=targets.values()),
+            **coloring,
+        )
     else:
-        ax = draw_robot(robot, fig.add_subplot(), positions[0], first_actuation, show_targets,
-                        colorbar=colorbar, **coloring)
-    fixed = (particle_colors(layout, stiffness=stiffness, stiffness_range=stiffness_range)
-             if stiffness is not None else None)
+        ax = draw_robot(
+            robot,
+            fig.add_subplot(),
+            positions[0],
+            first_actuation,
+            show_targets,
+            colorbar=colorbar,
+            **coloring,
+        )
+    fixed = (
+        particle_colors(layout, stiffness=stiffness, stiffness_range=stiffness_range)
+        if stiffness is not None
+        else None
+    )
     particles = next(a for a in ax.get_children() if a.get_gid() == "particles")
     crosses = [a for a in ax.get_children() if a.get_gid() == "reach_group"]
     groups = [layout.groups[g] for g in resolve(robot)[3]] if show_targets else []
@@ -150,8 +186,9 @@ def save_animation(animation, path: Path, writer, dpi: int) -> None:
             os.unlink(temporary)
 
 
-def record_rollout(robot, policy, policy_params, steps: int, design=None, stride: int = 1,
-                   check: bool = True, field=None):
+def record_rollout(
+    robot, policy, policy_params, steps: int, design=None, stride: int = 1, check: bool = True, field=None
+):
     """Simulate `robot` under `policy` and return what `animate_rollout` draws.
 
     Runs `litl.sim.make_rollout` (jitted) from the robot's rest state, recording every particle's
@@ -180,9 +217,17 @@ def record_rollout(robot, policy, policy_params, steps: int, design=None, stride
         raise VizError(f"stride must be an integer in [1, steps={steps}], got {stride!r}")
     from litl.sim.fields import grid_velocity
 
-    rollout = jax.jit(make_rollout(robot.config, robot.body(), policy, steps,
-                                   observe=lambda state: state.x, remat=False,
-                                   field=field or grid_velocity))
+    rollout = jax.jit(
+        make_rollout(
+            robot.config,
+            robot.body(),
+            policy,
+            steps,
+            observe=lambda state: state.x,
+            remat=False,
+            field=field or grid_velocity,
+        )
+    )
     design = robot.design_space.to_design() if design is None else design
     _, trajectory = rollout(policy_params, design, robot.initial_state())
     if check:

@@ -76,10 +76,11 @@ def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
       not move).
     """
     positions = np.asarray(positions, np.float64)
-    if positions.ndim != 3 or positions.shape[1:] != (layout.n_particles, layout.dim) \
-            or len(positions) < 2:
-        raise VizError(f"positions must have shape (T, n_particles, dim) = (T, {layout.n_particles}"
-                       f", {layout.dim}) with T >= 2 frames, got {positions.shape}")
+    if positions.ndim != 3 or positions.shape[1:] != (layout.n_particles, layout.dim) or len(positions) < 2:
+        raise VizError(
+            f"positions must have shape (T, n_particles, dim) = (T, {layout.n_particles}"
+            f", {layout.dim}) with T >= 2 frames, got {positions.shape}"
+        )
     if not (np.isfinite(frame_dt) and frame_dt > 0):
         raise VizError(f"frame_dt must be a positive number of seconds, got {frame_dt}")
     spacing = particle_side(layout)
@@ -92,22 +93,27 @@ def measure_gait(positions, layout: Layout, frame_dt: float) -> dict:
     summary = []
     for i, foot in enumerate(feet):
         total = moves[:, i].sum()
-        summary.append({
-            "rest_x": float(rest[foot, 0].mean()),
-            "travel": float(xs[-1, i] - xs[0, i]),
-            "lifted_fraction": float(1.0 - down[:, i].mean()),
-            "liftoffs": int(np.sum(down[:-1, i] & ~down[1:, i])),
-            "max_height": float(heights[:, i].max() - floor),
-            "slip": float(grounded_moves[:, i].sum() / total) if total > 1e-9 else None,
-        })
+        summary.append(
+            {
+                "rest_x": float(rest[foot, 0].mean()),
+                "travel": float(xs[-1, i] - xs[0, i]),
+                "lifted_fraction": float(1.0 - down[:, i].mean()),
+                "liftoffs": int(np.sum(down[:-1, i] & ~down[1:, i])),
+                "max_height": float(heights[:, i].max() - floor),
+                "slip": float(grounded_moves[:, i].sum() / total) if total > 1e-9 else None,
+            }
+        )
     centroid = positions[:, :, 0].mean(axis=1)
     half = (len(positions) - 1) // 2
     late_speed = (centroid[-1] - centroid[half]) / ((len(positions) - 1 - half) * frame_dt)
-    stance = xs[:, -1] - xs[:, 0]         # feet are ordered back to front
-    return {"centroid_travel": float(centroid[-1] - centroid[0]),
-            "duration": float((len(positions) - 1) * frame_dt),
-            "late_speed": float(late_speed), "stance_change": float(stance[-1] - stance[0]),
-            "feet": summary}
+    stance = xs[:, -1] - xs[:, 0]  # feet are ordered back to front
+    return {
+        "centroid_travel": float(centroid[-1] - centroid[0]),
+        "duration": float((len(positions) - 1) * frame_dt),
+        "late_speed": float(late_speed),
+        "stance_change": float(stance[-1] - stance[0]),
+        "feet": summary,
+    }
 
 
 def draw_gait(robot, positions, frame_dt: float, path=None, frames: int = 8):
@@ -133,10 +139,16 @@ def draw_gait(robot, positions, frame_dt: float, path=None, frames: int = 8):
     _, lows, xs = _foot_tracks(positions, layout)
     time = np.arange(len(positions)) * frame_dt
     fig, (side, height, travel) = plt.subplots(
-        3, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [1.3, 1, 1]})
+        3, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [1.3, 1, 1]}
+    )
     for k, t in enumerate(np.linspace(0, len(positions) - 1, frames).round().astype(int)):
-        side.scatter(positions[t, :, 0], positions[t, :, 1], s=2, linewidths=0,
-                     color=plt.cm.viridis(k / max(frames - 1, 1)))
+        side.scatter(
+            positions[t, :, 0],
+            positions[t, :, 1],
+            s=2,
+            linewidths=0,
+            color=plt.cm.viridis(k / max(frames - 1, 1)),
+        )
     if config is not None:
         side.axhline(config.boundary.thickness * config.dx, color="k", lw=0.8)
     side.set_aspect("equal")

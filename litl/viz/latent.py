@@ -47,8 +47,10 @@ def check_observer(model, observer_params) -> None:
     if not isinstance(model, ConvAutoencoder):
         raise VizError(f"model must be a ConvAutoencoder, got {type(model).__name__}")
     if not isinstance(observer_params, AutoencoderParams):
-        raise VizError("observer_params must be the autoencoder's AutoencoderParams (the k-means "
-                       f"baseline has no latent space), got {type(observer_params).__name__}")
+        raise VizError(
+            "observer_params must be the autoencoder's AutoencoderParams (the k-means "
+            f"baseline has no latent space), got {type(observer_params).__name__}"
+        )
     if np.ndim(observer_params.scale) != 0:
         raise VizError(f"observer_params hold {np.shape(observer_params.scale)} seeds; {PICK_SEED}")
 
@@ -59,8 +61,10 @@ def check_fields(model: ConvAutoencoder, fields, name: str = "snapshots") -> np.
     want = tuple(model.grid_shape) + (model.dim,)
     if fields.ndim != len(want) + 1 or fields.shape[1:] != want or len(fields) == 0:
         shape = ", ".join(map(str, want))
-        raise VizError(f"{name} must have shape (T, *grid_shape, d) = (T, {shape}) with T >= 1 "
-                       f"for this model, got {fields.shape}")
+        raise VizError(
+            f"{name} must have shape (T, *grid_shape, d) = (T, {shape}) with T >= 1 "
+            f"for this model, got {fields.shape}"
+        )
     if not np.issubdtype(fields.dtype, np.floating):
         raise VizError(f"{name} must be floating point, got {fields.dtype}")
     return fields
@@ -113,8 +117,9 @@ def _draw_components(axes, field, norm, gid: str) -> None:
     """Draw each velocity component of `field` (*grid, d) on its own Axes of `axes`."""
     plane = field_plane(field)
     for component, ax in enumerate(axes):
-        ax.imshow(plane[..., component].T, origin="lower", cmap=FIELD_CMAP, norm=norm,
-                  interpolation="nearest")
+        ax.imshow(
+            plane[..., component].T, origin="lower", cmap=FIELD_CMAP, norm=norm, interpolation="nearest"
+        )
         ax.set_gid(gid)
         ax.set_xticks([])
         ax.set_yticks([])
@@ -140,8 +145,9 @@ def _depth_note(model: ConvAutoencoder) -> str:
 # ---------------------------------------------------------------------------- Fig. 1
 
 
-def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, snapshots,
-                   path=None) -> Figure:
+def draw_snapshots(
+    model: ConvAutoencoder, observer_params: AutoencoderParams, snapshots, path=None
+) -> Figure:
     """Velocity snapshots, their latent codes and reconstructions (paper Fig. 1).
 
     Column t shows snapshot t: on top its velocity components (x left, y right; x, y, z of the
@@ -189,7 +195,7 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
         _draw_components(bottom, reconstructions[t], norm, "reconstruction")
         for ax, label in zip(top, COMPONENTS):
             ax.set_title(f"{t + 1}: v{label}", fontsize=8)
-        code = fig.add_subplot(grid[1, t * d:(t + 1) * d])
+        code = fig.add_subplot(grid[1, t * d : (t + 1) * d])
         code.bar(np.arange(model.latent_dim), means[t], color=bar_colors[t])
         code.axhline(0.0, color="black", linewidth=0.5)
         code.set_ylim(-bar_limit, bar_limit)
@@ -200,8 +206,13 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
     fig.axes[0].set_ylabel("velocity", fontsize=8)
     fig.axes[d].set_ylabel("reconstruction", fontsize=8)
     next(ax for ax in fig.axes if ax.get_gid() == "latent").set_ylabel("latent", fontsize=8)
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=FIELD_CMAP), ax=field_axes, shrink=0.6,
-                 extend="both", label="velocity (red -, blue +)")
+    fig.colorbar(
+        plt.cm.ScalarMappable(norm=norm, cmap=FIELD_CMAP),
+        ax=field_axes,
+        shrink=0.6,
+        extend="both",
+        label="velocity (red -, blue +)",
+    )
     fig.suptitle(f"snapshots, latent codes and reconstructions{_depth_note(model)}", fontsize=10)
     _save(fig, path)
     return fig
@@ -210,8 +221,9 @@ def draw_snapshots(model: ConvAutoencoder, observer_params: AutoencoderParams, s
 # ---------------------------------------------------------------------------- Fig. 8
 
 
-def draw_latent_sweeps(model: ConvAutoencoder, observer_params: AutoencoderParams,
-                       values=np.linspace(-1.0, 1.0, 5), path=None) -> Figure:
+def draw_latent_sweeps(
+    model: ConvAutoencoder, observer_params: AutoencoderParams, values=np.linspace(-1.0, 1.0, 5), path=None
+) -> Figure:
     """Decoded one-hot latent vectors, each latent swept over `values` (paper Fig. 8).
 
     Row i shows D(v e_i) for each v in `values` (left to right), each box its velocity components
@@ -241,7 +253,8 @@ def draw_latent_sweeps(model: ConvAutoencoder, observer_params: AutoencoderParam
     # Row-major: latent i, value j is row i * V + j.
     one_hot = (np.eye(r)[:, None, :] * values[None, :, None]).reshape(r * count, r)
     decoded = decode_fields(model, observer_params, one_hot).reshape(
-        (r, count) + tuple(model.grid_shape) + (d,))
+        (r, count) + tuple(model.grid_shape) + (d,)
+    )
 
     fig = _new_figure(1.2 * count * d + 1.0, 1.2 * r + 0.8)
     grid = fig.add_gridspec(r, count * d)
@@ -256,8 +269,7 @@ def draw_latent_sweeps(model: ConvAutoencoder, observer_params: AutoencoderParam
                     ax.set_title(f"{values[j]:+.2g}: v{label}", fontsize=8)
             row += axes
         row[0].set_ylabel(f"z{i}", fontsize=8)
-        fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=FIELD_CMAP), ax=row, shrink=0.8,
-                     aspect=10)
+        fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=FIELD_CMAP), ax=row, shrink=0.8, aspect=10)
     fig.suptitle(f"decoded one-hot latents{_depth_note(model)} (red -, blue +)", fontsize=10)
     _save(fig, path)
     return fig
@@ -304,8 +316,10 @@ def draw_clusters(robot, kmeans_observer: KMeansObserver, ax=None):
         raise VizError(f"the observer holds {averaging.shape[:-2]} seeds; {PICK_SEED}")
     k = len(centers)
     if averaging.shape != (k, layout.n_particles) or centers.shape[1] != layout.dim:
-        raise VizError(f"the observer (averaging {averaging.shape}, centers {centers.shape}) does "
-                       f"not fit {name!r} with {layout.n_particles} particles in {layout.dim}D")
+        raise VizError(
+            f"the observer (averaging {averaging.shape}, centers {centers.shape}) does "
+            f"not fit {name!r} with {layout.n_particles} particles in {layout.dim}D"
+        )
     ax = draw(robot, ax, show_targets=False)
     labels = cluster_labels(kmeans_observer)
     colors = cluster_colors(k)
@@ -314,10 +328,25 @@ def draw_clusters(robot, kmeans_observer: KMeansObserver, ax=None):
     if layout.dim == 3:
         from litl.viz.robots import to_plot_3d
 
-        ax.scatter(*to_plot_3d(centers).T, s=80, c=colors, edgecolors="black", linewidths=1.5,
-                   zorder=5, gid="cluster_centers")
+        ax.scatter(
+            *to_plot_3d(centers).T,
+            s=80,
+            c=colors,
+            edgecolors="black",
+            linewidths=1.5,
+            zorder=5,
+            gid="cluster_centers",
+        )
     else:
-        ax.scatter(centers[:, 0], centers[:, 1], s=80, c=colors, edgecolors="black",
-                   linewidths=1.5, zorder=5, gid="cluster_centers")
+        ax.scatter(
+            centers[:, 0],
+            centers[:, 1],
+            s=80,
+            c=colors,
+            edgecolors="black",
+            linewidths=1.5,
+            zorder=5,
+            gid="cluster_centers",
+        )
     ax.set_title(f"{name}: k-means clusters (k = {k})")
     return ax

@@ -23,7 +23,6 @@ colours (a design φ: Young's modulus per region): ``viridis`` over the design b
 
 from __future__ import annotations
 
-from litl.errors import UserError
 from typing import Any
 
 import matplotlib.colors as mcolors
@@ -31,6 +30,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Circle, Rectangle
 
+from litl.errors import UserError
 from litl.robots.layout import Layout
 
 PASSIVE_COLOR = "#bdbdbd"
@@ -38,8 +38,7 @@ PINNED_COLOR = "#404040"
 WALL_COLOR = "#8c8c8c"
 TARGET_COLOR = "#1a9641"
 # tab10 without green (targets) and grey (passive material, walls).
-ACTUATOR_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22",
-                    "#17becf")
+ACTUATOR_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf")
 ACTUATION_CMAP = "RdBu"
 ACTUATION_NORM = mcolors.Normalize(vmin=-1.0, vmax=1.0)
 ACTUATION_LABEL = "actuation (+1 contracts, -1 expands)"
@@ -76,8 +75,11 @@ def resolve(robot, config=None, task=None):
         raise VizError(f"expected a Robot or a Layout, got {type(robot).__name__}")
     if config is not None and config.dim != layout.dim:
         raise VizError(f"the layout is {layout.dim}D but the config's grid is {config.dim}D")
-    targets = {} if task is None else {
-        group: np.asarray(point, np.float64) for group, point in task.targets.items()}
+    targets = (
+        {}
+        if task is None
+        else {group: np.asarray(point, np.float64) for group, point in task.targets.items()}
+    )
     for group in targets:
         layout.group_mask(group)  # clear error for an unknown group
     return name, layout, config, targets
@@ -90,8 +92,9 @@ def check_positions(name: str, layout: Layout, positions) -> np.ndarray:
     positions = np.asarray(positions, np.float64)
     want = (layout.n_particles, layout.dim)
     if positions.shape != want:
-        raise VizError(f"positions for {name!r} must have shape (n_particles, dim) = {want}, "
-                       f"got {positions.shape}")
+        raise VizError(
+            f"positions for {name!r} must have shape (n_particles, dim) = {want}, got {positions.shape}"
+        )
     return positions
 
 
@@ -101,8 +104,10 @@ def check_actuation(name: str, layout: Layout, actuation) -> np.ndarray | None:
         return None
     actuation = np.asarray(actuation, np.float64)
     if actuation.shape != (layout.n_actuators,):
-        raise VizError(f"actuation for {name!r} must have shape (n_actuators,) = "
-                       f"({layout.n_actuators},), got {actuation.shape}")
+        raise VizError(
+            f"actuation for {name!r} must have shape (n_actuators,) = "
+            f"({layout.n_actuators},), got {actuation.shape}"
+        )
     return actuation
 
 
@@ -124,13 +129,17 @@ def actuator_colors(n_actuators: int) -> np.ndarray:
 
 def stiffness_norm(stiffness, stiffness_range=None) -> mcolors.Normalize:
     """The colour scale of a design: `stiffness_range` (E_min, E_max), or the values' range."""
-    low, high = stiffness_range if stiffness_range is not None else (
-        float(np.min(stiffness)), float(np.max(stiffness)))
+    low, high = (
+        stiffness_range
+        if stiffness_range is not None
+        else (float(np.min(stiffness)), float(np.max(stiffness)))
+    )
     return mcolors.Normalize(vmin=low, vmax=high if high > low else low + 1.0)
 
 
-def particle_colors(layout: Layout, actuation=None, show_regions: bool = False,
-                    stiffness=None, stiffness_range=None) -> np.ndarray:
+def particle_colors(
+    layout: Layout, actuation=None, show_regions: bool = False, stiffness=None, stiffness_range=None
+) -> np.ndarray:
     """(n, 4) RGBA colour of every particle.
 
     Args:
@@ -153,8 +162,10 @@ def particle_colors(layout: Layout, actuation=None, show_regions: bool = False,
     if stiffness is not None:
         stiffness = np.asarray(stiffness, np.float64)
         if stiffness.shape != (layout.n_regions,):
-            raise VizError(f"stiffness must have one value per design region, shape "
-                           f"({layout.n_regions},), got {stiffness.shape}")
+            raise VizError(
+                f"stiffness must have one value per design region, shape "
+                f"({layout.n_regions},), got {stiffness.shape}"
+            )
         norm = stiffness_norm(stiffness, stiffness_range)
         colors = plt.get_cmap(STIFFNESS_CMAP)(norm(stiffness[layout.region]))
     elif show_regions:
@@ -215,9 +226,20 @@ def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
     return list(zip(low - margin, high + margin))
 
 
-def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: bool = True,
-               show_regions: bool = False, *, config=None, task=None, colorbar: bool = False,
-               stiffness=None, stiffness_range=None):
+def draw_robot(
+    robot,
+    ax=None,
+    positions=None,
+    actuation=None,
+    show_targets: bool = True,
+    show_regions: bool = False,
+    *,
+    config=None,
+    task=None,
+    colorbar: bool = False,
+    stiffness=None,
+    stiffness_range=None,
+):
     """Draw a 2D robot (rest pose or any state) on a matplotlib Axes.
 
     Args:
@@ -260,24 +282,60 @@ def draw_robot(robot, ax=None, positions=None, actuation=None, show_targets: boo
     ax.set_aspect("equal")
     if config is not None:
         for corner, width, height in _wall_rectangles(config):
-            ax.add_patch(Rectangle(corner, width, height, facecolor=WALL_COLOR, edgecolor="none",
-                                   zorder=1, gid="wall"))
+            ax.add_patch(
+                Rectangle(corner, width, height, facecolor=WALL_COLOR, edgecolor="none", zorder=1, gid="wall")
+            )
         for lo, hi in config.boundary.pinned_boxes:
-            ax.add_patch(Rectangle(lo, hi[0] - lo[0], hi[1] - lo[1], facecolor=PINNED_COLOR,
-                                   alpha=0.3, hatch="//", edgecolor=PINNED_COLOR, zorder=1,
-                                   gid="pinned_box"))
-    if colorbar:   # first: it shrinks the Axes, which sets the marker size
+            ax.add_patch(
+                Rectangle(
+                    lo,
+                    hi[0] - lo[0],
+                    hi[1] - lo[1],
+                    facecolor=PINNED_COLOR,
+                    alpha=0.3,
+                    hatch="//",
+                    edgecolor=PINNED_COLOR,
+                    zorder=1,
+                    gid="pinned_box",
+                )
+            )
+    if colorbar:  # first: it shrinks the Axes, which sets the marker size
         _add_colorbar(ax, actuation, stiffness, stiffness_range)
-    ax.scatter(positions[:, 0], positions[:, 1], s=_marker_size(ax, particle_side(layout)),
-               c=colors, marker="s", linewidths=0, zorder=2, gid="particles")
+    ax.scatter(
+        positions[:, 0],
+        positions[:, 1],
+        s=_marker_size(ax, particle_side(layout)),
+        c=colors,
+        marker="s",
+        linewidths=0,
+        zorder=2,
+        gid="particles",
+    )
     if show_targets:
         radius = 2.0 * (config.dx if config is not None else particle_side(layout))
         for group, target in targets.items():
-            ax.add_patch(Circle(tuple(target), radius, facecolor=TARGET_COLOR, alpha=0.6,
-                                edgecolor=TARGET_COLOR, zorder=3, gid="target"))
+            ax.add_patch(
+                Circle(
+                    tuple(target),
+                    radius,
+                    facecolor=TARGET_COLOR,
+                    alpha=0.6,
+                    edgecolor=TARGET_COLOR,
+                    zorder=3,
+                    gid="target",
+                )
+            )
             center = positions[layout.groups[group]].mean(axis=0)
-            ax.plot(*center, marker="x", color="black", markersize=9, markeredgewidth=2,
-                    linestyle="none", zorder=4, gid="reach_group")
+            ax.plot(
+                *center,
+                marker="x",
+                color="black",
+                markersize=9,
+                markeredgewidth=2,
+                linestyle="none",
+                zorder=4,
+                gid="reach_group",
+            )
     ax.set_xlabel("x")
     ax.set_ylabel("y (up)")
     return ax
@@ -292,8 +350,7 @@ def add_actuation_colorbar(ax, **kwargs):
 
 def add_stiffness_colorbar(ax, stiffness, stiffness_range=None, **kwargs):
     """A colour bar of the stiffness scale (``viridis``) beside `ax`; returns it."""
-    mappable = plt.cm.ScalarMappable(norm=stiffness_norm(stiffness, stiffness_range),
-                                     cmap=STIFFNESS_CMAP)
+    mappable = plt.cm.ScalarMappable(norm=stiffness_norm(stiffness, stiffness_range), cmap=STIFFNESS_CMAP)
     kwargs = {"shrink": 0.8, "label": STIFFNESS_LABEL, **kwargs}
     return ax.figure.colorbar(mappable, ax=ax, **kwargs)
 
@@ -313,10 +370,23 @@ def to_plot_3d(points: np.ndarray) -> np.ndarray:
     return np.asarray(points)[..., [0, 2, 1]]
 
 
-def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: bool = True,
-                  show_regions: bool = False, *, config=None, task=None, colorbar: bool = False,
-                  stiffness=None, stiffness_range=None, elev: float = 20.0, azim: float = -65.0,
-                  limits=None):
+def draw_robot_3d(
+    robot,
+    ax=None,
+    positions=None,
+    actuation=None,
+    show_targets: bool = True,
+    show_regions: bool = False,
+    *,
+    config=None,
+    task=None,
+    colorbar: bool = False,
+    stiffness=None,
+    stiffness_range=None,
+    elev: float = 20.0,
+    azim: float = -65.0,
+    limits=None,
+):
     """Draw a 3D robot as a scatter on a mplot3d Axes (same colour rules as `draw_robot`).
 
     The simulation's axis 1 ("up") is drawn vertically and axis 2 (depth) into the picture; the
@@ -370,16 +440,24 @@ def draw_robot_3d(robot, ax=None, positions=None, actuation=None, show_targets: 
     extent = float(np.max(limits[:, 1] - limits[:, 0]))
     width_points = ax.figure.get_figwidth() * 72.0 * 0.6
     size = max((particle_side(layout) / extent * width_points) ** 2, 0.5)
-    ax.scatter(plotted[:, 0], plotted[:, 1], plotted[:, 2], s=size, c=colors, marker="s",
-               linewidths=0, depthshade=True, zorder=2, gid="particles")
+    ax.scatter(
+        plotted[:, 0],
+        plotted[:, 1],
+        plotted[:, 2],
+        s=size,
+        c=colors,
+        marker="s",
+        linewidths=0,
+        depthshade=True,
+        zorder=2,
+        gid="particles",
+    )
     if show_targets:
         for group, target in targets.items():
             point = to_plot_3d(target)
-            ax.scatter(*point, s=120, color=TARGET_COLOR, alpha=0.7, marker="o", zorder=3,
-                       gid="target")
+            ax.scatter(*point, s=120, color=TARGET_COLOR, alpha=0.7, marker="o", zorder=3, gid="target")
             center = to_plot_3d(positions[layout.groups[group]].mean(axis=0))
-            ax.scatter(*center, s=80, color="black", marker="x", linewidths=2, zorder=4,
-                       gid="reach_group")
+            ax.scatter(*center, s=80, color="black", marker="x", linewidths=2, zorder=4, gid="reach_group")
     if colorbar:
         _add_colorbar(ax, actuation, stiffness, stiffness_range, shrink=0.6, pad=0.12)
     ax.set_xlabel("x")
@@ -392,8 +470,9 @@ def rollout_limits(positions, config=None, margin: float = 0.1, targets=()) -> n
     """(3, 2) view limits around a 3D rollout: its particles' bounding box over all frames (and
     any `targets` points), `margin` wider on every side and down to the floor, clipped to the
     domain (with `config`)."""
-    points = np.concatenate([np.asarray(positions, float).reshape(-1, 3),
-                             np.asarray(list(targets), float).reshape(-1, 3)])
+    points = np.concatenate(
+        [np.asarray(positions, float).reshape(-1, 3), np.asarray(list(targets), float).reshape(-1, 3)]
+    )
     limits = np.stack([points.min(0) - margin, points.max(0) + margin], axis=1)
     limits[1, 0] = 0.0
     if config is not None:
@@ -405,11 +484,14 @@ def rollout_limits(positions, config=None, margin: float = 0.1, targets=()) -> n
 def _draw_floor(ax, config, limits):
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    (x0, x1), (z0, z1) = limits[0], limits[1]    # plot axes: x, depth
+    (x0, x1), (z0, z1) = limits[0], limits[1]  # plot axes: x, depth
     height = config.boundary.thickness * config.dx
     corners = [(x0, z0, height), (x1, z0, height), (x1, z1, height), (x0, z1, height)]
-    ax.add_collection3d(Poly3DCollection([corners], facecolor=WALL_COLOR, alpha=0.35,
-                                         edgecolor=WALL_COLOR, zorder=1, gid="wall"))
+    ax.add_collection3d(
+        Poly3DCollection(
+            [corners], facecolor=WALL_COLOR, alpha=0.35, edgecolor=WALL_COLOR, zorder=1, gid="wall"
+        )
+    )
 
 
 def draw(robot, ax=None, **kwargs: Any):

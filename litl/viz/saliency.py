@@ -53,8 +53,7 @@ def make_saliency(model: ConvAutoencoder, controller: MLPController):
 
     def saliency(observer_params, controller_params, field, time=None):
         # Reverse mode: one backward pass per actuator instead of one forward pass per velocity.
-        jacobian = jax.jacrev(actuation, argnums=2)(observer_params, controller_params, field,
-                                                    time)
+        jacobian = jax.jacrev(actuation, argnums=2)(observer_params, controller_params, field, time)
         return jacobian * field
 
     return saliency
@@ -70,12 +69,15 @@ def _check_controller(controller, controller_params, model, observer_params, fie
     try:
         out = jax.eval_shape(actuation, observer_params, controller_params, field, time)
     except Exception as error:  # flax reports a shape mismatch deep inside a Dense layer
-        raise VizError(f"the controller parameters do not fit this controller on "
-                       f"{model.latent_dim} latent features (a run's stacked seeds? {PICK_SEED}): "
-                       f"{error}") from error
+        raise VizError(
+            f"the controller parameters do not fit this controller on "
+            f"{model.latent_dim} latent features (a run's stacked seeds? {PICK_SEED}): "
+            f"{error}"
+        ) from error
     if out.shape != (controller.n_actuators,):
-        raise VizError(f"the controller returned shape {out.shape}, expected "
-                       f"({controller.n_actuators},): {PICK_SEED}")
+        raise VizError(
+            f"the controller returned shape {out.shape}, expected ({controller.n_actuators},): {PICK_SEED}"
+        )
 
 
 def _check_times(times, count):
@@ -83,13 +85,18 @@ def _check_times(times, count):
         return [None] * count
     times = np.asarray(times, np.float64)
     if times.shape != (count,):
-        raise VizError(f"times must have shape (T,) = ({count},), one per snapshot, got "
-                       f"{times.shape}")
+        raise VizError(f"times must have shape (T,) = ({count},), one per snapshot, got {times.shape}")
     return list(times)
 
 
-def saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
-             controller: MLPController, controller_params, field, time=None) -> np.ndarray:
+def saliency(
+    model: ConvAutoencoder,
+    observer_params: AutoencoderParams,
+    controller: MLPController,
+    controller_params,
+    field,
+    time=None,
+) -> np.ndarray:
     """Gradient of every actuator signal w.r.t. the observed grid field, times the field.
 
     Args:
@@ -120,10 +127,19 @@ def _magnitude_plane(saliency_maps) -> np.ndarray:
     return magnitude if magnitude.ndim == 3 else magnitude[:, :, :, magnitude.shape[3] // 2]
 
 
-def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
-                     controller: MLPController, controller_params, snapshots, path,
-                     actuator=None, times=None, fps: float = 10, stride: int = 1,
-                     dpi: int = 80) -> Path:
+def animate_saliency(
+    model: ConvAutoencoder,
+    observer_params: AutoencoderParams,
+    controller: MLPController,
+    controller_params,
+    snapshots,
+    path,
+    actuator=None,
+    times=None,
+    fps: float = 10,
+    stride: int = 1,
+    dpi: int = 80,
+) -> Path:
     """Write an animation of saliency maps over snapshots (``.gif`` always, ``.mp4`` with ffmpeg).
 
     Each panel shows, for one actuator, |saliency| summed over the velocity components, grid axis 0
@@ -165,18 +181,23 @@ def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
     times = _check_times(times, len(fields))
     m = controller.n_actuators if isinstance(controller, MLPController) else 0
     actuators = list(range(m)) if actuator is None else list(np.atleast_1d(actuator))
-    if not actuators or any(not isinstance(a, (int, np.integer)) or not 0 <= a < m
-                            for a in actuators):
+    if not actuators or any(not isinstance(a, (int, np.integer)) or not 0 <= a < m for a in actuators):
         raise VizError(f"actuator must be an index or indices in [0, {m}), got {actuator!r}")
     frames = list(range(0, len(fields), stride))
-    _check_controller(controller, controller_params, model, observer_params,
-                      jnp.asarray(fields[0]), times[0])
+    _check_controller(controller, controller_params, model, observer_params, jnp.asarray(fields[0]), times[0])
 
     compute = jax.jit(make_saliency(model, controller))
     # (frames, panels, nx, ny): frame by frame, so memory stays that of one Jacobian.
-    maps = np.stack([_magnitude_plane(np.asarray(compute(
-        observer_params, controller_params, jnp.asarray(fields[k]), times[k]))[actuators])
-        for k in frames])
+    maps = np.stack(
+        [
+            _magnitude_plane(
+                np.asarray(compute(observer_params, controller_params, jnp.asarray(fields[k]), times[k]))[
+                    actuators
+                ]
+            )
+            for k in frames
+        ]
+    )
 
     columns = min(len(actuators), 4)
     rows = -(-len(actuators) // columns)
@@ -186,8 +207,15 @@ def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
     for panel, a in enumerate(actuators):
         ax = fig.add_subplot(rows, columns, panel + 1)
         limit = float(maps[:, panel].max()) or 1.0  # an all-zero panel still needs a range
-        images.append(ax.imshow(maps[0, panel].T, origin="lower", cmap=SALIENCY_CMAP,
-                                norm=mcolors.Normalize(0.0, limit), interpolation="nearest"))
+        images.append(
+            ax.imshow(
+                maps[0, panel].T,
+                origin="lower",
+                cmap=SALIENCY_CMAP,
+                norm=mcolors.Normalize(0.0, limit),
+                interpolation="nearest",
+            )
+        )
         ax.set_title(f"actuator {a}", fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
@@ -199,8 +227,9 @@ def animate_saliency(model: ConvAutoencoder, observer_params: AutoencoderParams,
     def update(index):
         for panel, image in enumerate(images):
             image.set_data(maps[index, panel].T)
-        title.set_text(f"|saliency| summed over components{depth}: snapshot {frames[index] + 1}"
-                       f" / {len(fields)}")
+        title.set_text(
+            f"|saliency| summed over components{depth}: snapshot {frames[index] + 1} / {len(fields)}"
+        )
         return [*images, title]
 
     animation = manimation.FuncAnimation(fig, update, frames=range(len(frames)), blit=False)

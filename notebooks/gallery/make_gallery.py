@@ -62,15 +62,22 @@ def run_demo(run_dir: pathlib.Path) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--demo", type=pathlib.Path,
-                        help="a finished `python -m litl` run directory (default: run the demo now)")
-    parser.add_argument("--compare", type=pathlib.Path,
-                        help="the multirun directory of `python -m litl -m experiment=biped_compare`")
-    parser.add_argument("--walkers", type=pathlib.Path,
-                        help="a folder of finished runs, one per robot: walker_<robot>.gif and "
-                             "walker_<robot>_gait.png each")
-    parser.add_argument("--no-demo", action="store_true",
-                        help="skip robots.png and the demo's pictures")
+    parser.add_argument(
+        "--demo",
+        type=pathlib.Path,
+        help="a finished `python -m litl` run directory (default: run the demo now)",
+    )
+    parser.add_argument(
+        "--compare",
+        type=pathlib.Path,
+        help="the multirun directory of `python -m litl -m experiment=biped_compare`",
+    )
+    parser.add_argument(
+        "--walkers",
+        type=pathlib.Path,
+        help="a folder of finished runs, one per robot: walker_<robot>.gif and walker_<robot>_gait.png each",
+    )
+    parser.add_argument("--no-demo", action="store_true", help="skip robots.png and the demo's pictures")
     parser.add_argument("--out", type=pathlib.Path, default=GALLERY, help="where to write")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -90,8 +97,10 @@ def main(argv=None) -> int:
 def replay_seed0(run: pathlib.Path, out: pathlib.Path, *options: str) -> None:
     """`python -m litl.replay RUN --seed 0 [options]` into `out`, keeping only the animation (and
     the gait picture, with --gait)."""
-    subprocess.run([sys.executable, "-m", "litl.replay", str(run), "--seed", "0",
-                    "--out", str(out), *options], check=True)
+    subprocess.run(
+        [sys.executable, "-m", "litl.replay", str(run), "--seed", "0", "--out", str(out), *options],
+        check=True,
+    )
     out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
     out.with_suffix(".json").unlink(missing_ok=True)
     for written in (out, out.with_name(out.stem + "_gait.png")):
@@ -110,8 +119,10 @@ def write_demo(parser, args) -> None:
             run_demo(demo)
         missing = [name for name in DEMO_FILES if not (demo / name).is_file()]
         if missing:
-            parser.error(f"{demo} lacks {', '.join(missing)}: give the directory of a finished "
-                         "`python -m litl` run (with the VAE observer)")
+            parser.error(
+                f"{demo} lacks {', '.join(missing)}: give the directory of a finished "
+                "`python -m litl` run (with the VAE observer)"
+            )
         for name in DEMO_FILES:
             shutil.copyfile(demo / name, args.out / name)
             print(args.out / name)

@@ -13,7 +13,9 @@ from litl.models import vae
 GRID = (32, 32)
 CAPACITY = 40
 MODEL = vae.ConvAutoencoder(GRID, latent_dim=4, channels=(4, 4, 8, 8, 8))
-CONFIG = LearningConfig(patience_steps=None, max_steps=None, max_epochs=12, batch_size=5, patience=4, learning_rate=1e-2)
+CONFIG = LearningConfig(
+    patience_steps=None, max_steps=None, max_epochs=12, batch_size=5, patience=4, learning_rate=1e-2
+)
 EMPTY = np.zeros((0,) + GRID + (2,), np.float32)
 
 
@@ -89,7 +91,9 @@ def test_learning_lowers_validation_loss(learn, params):
 def test_early_stopping_when_validation_cannot_improve(params):
     # With a zero learning rate every epoch has the same validation loss: epoch 1 stays the best
     # and epoch 1 + patience is the last.
-    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=5, batch_size=8, patience=2, learning_rate=0.0)
+    config = LearningConfig(
+        patience_steps=None, max_steps=None, max_epochs=5, batch_size=8, patience=2, learning_rate=0.0
+    )
     learn = jax.jit(learning.make_learning_phase(MODEL, config))
     best, stats = learn(params, buffer_of(moving_discs(12)), jax.random.key(2))
     assert int(stats.epochs_used) == 3 and int(stats.best_epoch) == 1
@@ -151,8 +155,15 @@ def test_too_few_entries_leave_params_unchanged(learn, params):
 
 def test_vmap_over_seeds_equals_separate_runs(two_params, x64):
     # The paper's loss (no momentum head): the keys below were chosen for its stopping epochs.
-    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=4, batch_size=4,
-                            patience=1, learning_rate=1e-2, momentum_weight=0.0)
+    config = LearningConfig(
+        patience_steps=None,
+        max_steps=None,
+        max_epochs=4,
+        batch_size=4,
+        patience=1,
+        learning_rate=1e-2,
+        momentum_weight=0.0,
+    )
     learn = learning.make_learning_phase(MODEL, config)
     as64 = lambda tree: jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), tree)
     seeds = [as64(p) for p in two_params]
@@ -215,9 +226,9 @@ def test_bad_arguments(params):
 
 def test_explained_variance_and_active_units_have_known_answers():
     x = jnp.asarray(moving_discs(6))
-    recon = jnp.mean((0.5 * x - x) ** 2)                  # reconstructions at half the size
+    recon = jnp.mean((0.5 * x - x) ** 2)  # reconstructions at half the size
     assert float(vae.explained_variance(recon, jnp.mean(x**2))) == pytest.approx(0.75)
-    assert float(vae.explained_variance(jnp.mean(x**2), jnp.mean(x**2))) == 0.0   # blank output
+    assert float(vae.explained_variance(jnp.mean(x**2), jnp.mean(x**2))) == 0.0  # blank output
     codes = jnp.stack([jnp.linspace(-1, 1, 11), jnp.full(11, 3.0), 0.05 * jnp.linspace(-1, 1, 11)], 1)
     assert int(vae.active_units(codes.mean(0), (codes**2).mean(0))) == 1
 
@@ -231,7 +242,9 @@ def test_an_epoch_costs_what_the_buffer_holds_not_its_capacity(params):
             return super().encode(field)
 
     model = Counting(GRID, latent_dim=4, channels=(4, 4, 8, 8, 8))
-    config = LearningConfig(patience_steps=None, max_steps=None, max_epochs=3, batch_size=5, patience=3, learning_rate=1e-2)
+    config = LearningConfig(
+        patience_steps=None, max_steps=None, max_epochs=3, batch_size=5, patience=3, learning_rate=1e-2
+    )
     learn = jax.jit(learning.make_learning_phase(model, config))
     fields = moving_discs(10)
     counts = {}
@@ -243,15 +256,16 @@ def test_an_epoch_costs_what_the_buffer_holds_not_its_capacity(params):
 
 
 def test_patience_and_budget_in_sgd_steps(learn, params):
-    buffer = buffer_of(moving_discs(20))           # 10 training entries: 2 minibatches of 5
-    config = LearningConfig(max_epochs=50, batch_size=5, patience=1, patience_steps=6,
-                            max_steps=14, learning_rate=1e-2)
+    buffer = buffer_of(moving_discs(20))  # 10 training entries: 2 minibatches of 5
+    config = LearningConfig(
+        max_epochs=50, batch_size=5, patience=1, patience_steps=6, max_steps=14, learning_rate=1e-2
+    )
     _, stats = jax.jit(learning.make_learning_phase(MODEL, config))(params, buffer, jax.random.key(0))
     epochs, best = int(stats.epochs_used), int(stats.best_epoch)
     assert int(stats.steps_per_epoch) == 2
     # Stops at the 14-step budget (7 epochs) or 3 epochs (6 steps) after its best one.
     assert epochs == 7 or epochs - best == 3
-    assert epochs >= 3   # a patience of one epoch would have allowed stopping after epoch 2
+    assert epochs >= 3  # a patience of one epoch would have allowed stopping after epoch 2
     with pytest.raises(ValueError, match="patience_steps=0: must be a positive integer"):
         LearningConfig(patience_steps=0)
 
@@ -265,8 +279,11 @@ def test_velocity_readout_r2_has_known_answers():
     noise = jnp.asarray(rng.normal(size=(200, 2)))
     for target, expected in ((exact, 1.0), (noise, 0.0)):
         readout = learning.fit_readout(features.T @ features / n, features.T @ target / n)
-        means = {"residual": jnp.mean((features @ readout - target) ** 2, axis=0),
-                 "target": jnp.mean(target, axis=0), "target_square": jnp.mean(target**2, axis=0)}
+        means = {
+            "residual": jnp.mean((features @ readout - target) ** 2, axis=0),
+            "target": jnp.mean(target, axis=0),
+            "target_square": jnp.mean(target**2, axis=0),
+        }
         np.testing.assert_allclose(learning.readout_r2(means), expected, atol=0.05)
     # The target: the mean velocity over occupied nodes (empty nodes do not dilute it).
     field = np.zeros((1, 8, 8, 2), np.float32)
@@ -279,8 +296,7 @@ def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
     config = LearningConfig(max_epochs=3, batch_size=8, learning_rate=3e-3)
     fields = moving_discs(40)
     key = jax.random.key(1)
-    best, stats = jax.jit(learning.make_learning_phase(MODEL, config))(
-        params, buffer_of(fields, 40), key)
+    best, stats = jax.jit(learning.make_learning_phase(MODEL, config))(params, buffer_of(fields, 40), key)
     split = learning.random_split(40, 40, jax.random.split(key)[0])
     x = fields / float(best.scale)
     codes = np.asarray(MODEL.apply(best.network, jnp.asarray(x), method="encode")[0], np.float64)
@@ -315,11 +331,10 @@ def test_the_progress_line_follows_the_epochs_of_a_running_phase(learn, params):
     with bar.learning(0):
         _, stats = jax.block_until_ready(reporting(params, buffer, jax.random.key(2)))
     assert [epoch for epoch, _ in heard] == list(range(1, int(stats.epochs_used) + 1))
-    history = np.asarray(stats.val_recon_history)[:len(heard)]
+    history = np.asarray(stats.val_recon_history)[: len(heard)]
     assert np.all(np.isfinite([loss for _, loss in heard])) and np.all(np.isfinite(history))
     assert f"learning phase: epoch {int(stats.epochs_used)}, validation loss" in log.getvalue()
     _, quiet_stats = jax.block_until_ready(learn(params, buffer, jax.random.key(2)))
-    assert len(heard) == int(stats.epochs_used)                  # nothing more was reported
+    assert len(heard) == int(stats.epochs_used)  # nothing more was reported
     assert int(quiet_stats.epochs_used) == int(stats.epochs_used)
-    np.testing.assert_allclose(quiet_stats.val_recon_history, stats.val_recon_history,
-                               rtol=1e-6)
+    np.testing.assert_allclose(quiet_stats.val_recon_history, stats.val_recon_history, rtol=1e-6)

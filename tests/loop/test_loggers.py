@@ -22,8 +22,8 @@ def read_events(directory):
         data = path.read_bytes()
         offset = 0
         while offset < len(data):
-            (length,) = struct.unpack("<Q", data[offset:offset + 8])
-            event = Event.FromString(data[offset + 12:offset + 12 + length])
+            (length,) = struct.unpack("<Q", data[offset : offset + 8])
+            event = Event.FromString(data[offset + 12 : offset + 12 + length])
             offset += 12 + length + 4
             for value in event.summary.value:
                 kind = "image" if value.HasField("image") else value.simple_value
@@ -46,9 +46,16 @@ def test_event_files_mirror_the_metrics_per_seed(logged_run):
         mine = [r for r in metrics if r["seed"] == seed]
         assert events["task/loss"] == pytest.approx({r["step"]: r["task_loss"] for r in mine})
         assert set(events["task/distance"]) == {r["step"] for r in mine}
-        for tag in ("design/mean", "design/max", "gradients/controller_norm",
-                    "gradients/design_norm", "learning/recon_loss_val", "learning/recon_explained",
-                    "learning/active_units", "learning/velocity_r2_x"):
+        for tag in (
+            "design/mean",
+            "design/max",
+            "gradients/controller_norm",
+            "gradients/design_norm",
+            "learning/recon_loss_val",
+            "learning/recon_explained",
+            "learning/active_units",
+            "learning/velocity_r2_x",
+        ):
             assert tag in events, tag
         phases = [r for r in learning if r["seed"] == seed]
         assert sorted(events["learning/recon_loss_val"]) == [r["phase"] * 2 for r in phases]
@@ -66,8 +73,8 @@ def test_a_resumed_run_rewrites_its_logs_from_the_records(logged_run, tmp_path):
 
     copy = tmp_path / "copy"
     shutil.copytree(logged_run, copy)
-    (copy / "tensorboard" / "seed0" / "stale").mkdir()            # replaced, not appended to
-    run(tiny_robot(), tiny_config(), copy, progress=False)         # finished: nothing to do
+    (copy / "tensorboard" / "seed0" / "stale").mkdir()  # replaced, not appended to
+    run(tiny_robot(), tiny_config(), copy, progress=False)  # finished: nothing to do
     assert not (copy / "tensorboard" / "seed0" / "stale").exists()
     events = read_events(copy / "tensorboard" / "seed0")
     assert events["task/loss"] == read_events(logged_run / "tensorboard" / "seed0")["task/loss"]
@@ -80,8 +87,7 @@ def test_loggers_that_cannot_be_used_are_refused_up_front(tmp_path):
         import wandb  # noqa: F401
     except ImportError:
         with pytest.raises(SettingsError, match="logger=wandb needs the Weights & Biases package"):
-            run(tiny_robot(), tiny_config(output={"logger": "wandb"}), tmp_path / "w",
-                progress=False)
+            run(tiny_robot(), tiny_config(output={"logger": "wandb"}), tmp_path / "w", progress=False)
         assert not (tmp_path / "w" / "run.json").exists()
 
 
@@ -100,8 +106,7 @@ class _FakeWandbRun:
 
 
 @pytest.mark.parametrize("resumed", [False, True])
-def test_wandb_logs_per_seed_against_litl_steps_and_restores_only_a_new_run(
-        tmp_path, monkeypatch, resumed):
+def test_wandb_logs_per_seed_against_litl_steps_and_restores_only_a_new_run(tmp_path, monkeypatch, resumed):
     """Without the wandb package installed: a stand-in module records what the logger sends."""
     import sys
     import types
@@ -116,10 +121,16 @@ def test_wandb_logs_per_seed_against_litl_steps_and_restores_only_a_new_run(
     logger = make_logger("wandb", tmp_path, seeds=[3, 4], iterations=2)
     assert ("*", {"step_metric": "litl_step"}) in fake_run.metrics
     history = [{"seed": 3, "step": 0, "task_loss": -0.1}, {"seed": 4, "step": 0, "task_loss": -0.2}]
-    phase = {"seed": 4, "phase": 0, "steps_per_epoch": 5, "sgd_steps": 10,
-             "val_recon_history": [0.3, 0.2], "recon_explained": 0.5}
+    phase = {
+        "seed": 4,
+        "phase": 0,
+        "steps_per_epoch": 5,
+        "sgd_steps": 10,
+        "val_recon_history": [0.3, 0.2],
+        "recon_explained": 0.5,
+    }
     logger.restore(history, [phase])
-    assert (fake_run.logged == []) == resumed       # a resumed W&B run holds its history already
+    assert (fake_run.logged == []) == resumed  # a resumed W&B run holds its history already
     logger.iteration([{"seed": 4, "step": 1, "task_loss": -0.25}])
     last = fake_run.logged[-1]
     assert last["litl_step"] == 1 and last["seed4/task/loss"] == -0.25

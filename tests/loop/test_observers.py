@@ -20,15 +20,22 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 # The guide's example module: a fixed random projection of the grid velocity field.
 GUIDE = ROOT / "docs" / "guide" / "observers.md"
-(PROJECTION_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(),
-                                                      re.S) if block.startswith("# my_observers.py")]
+(PROJECTION_MODULE,) = [
+    block
+    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
+    if block.startswith("# my_observers.py")
+]
 
 
 def test_builtin_observers_through_the_interface():
     robot = tiny_robot()
     config = robot.config
-    for name, n_features, learned in (("vae", 4, True), ("ae", 4, True), ("kmeans", 2 * 3 * 2, False),
-                                      ("none", 0, False)):
+    for name, n_features, learned in (
+        ("vae", 4, True),
+        ("ae", 4, True),
+        ("kmeans", 2 * 3 * 2, False),
+        ("none", 0, False),
+    ):
         observer = observers.make(name, robot, tiny_config(observer={"kind": name}), config, jnp.float32)
         assert (observer.n_features, observer.learned) == (n_features, learned), name
         params = observer.init(jax.random.key(0), 0)
@@ -42,8 +49,7 @@ def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
         observers.register("vae", lambda *args: None)
     with pytest.raises(ValueError, match="non-empty string"):
         observers.register("", lambda *args: None)
-    with pytest.raises(SettingsError, match="observer.kind='vea': unknown observer; choose one "
-                                            "of .*kmeans"):
+    with pytest.raises(SettingsError, match="observer.kind='vea': unknown observer; choose one of .*kmeans"):
         observers.check_kind(tiny_config(observer={"kind": "vea"}))
 
 
@@ -52,10 +58,24 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     run_dir = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "litl", "observer.kind=random_projection",
-         "observer.module=my_observers", "observer.vae.latent_dim=3", "+scale=smoke",
-         "loop.episodes=1", "output.progress=false", f"hydra.run.dir={run_dir}"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "litl",
+            "observer.kind=random_projection",
+            "observer.module=my_observers",
+            "observer.vae.latent_dim=3",
+            "+scale=smoke",
+            "loop.episodes=1",
+            "output.progress=false",
+            f"hydra.run.dir={run_dir}",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     settings = json.loads((run_dir / "run.json").read_text())
     assert settings["observer"] == {"learned": False, "reads": ["observer.vae"]}
@@ -64,7 +84,13 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     assert len(records) == 2 and all(r["recon_loss_val"] is None for r in records)
     for name in ("robot.png", "robot.gif", "task_loss.png"):
         assert (run_dir / name).stat().st_size > 0, name
-    report = subprocess.run([sys.executable, "-m", "litl.report", str(run_dir)], cwd=tmp_path,
-                            env=env, capture_output=True, text=True, timeout=300)
+    report = subprocess.run(
+        [sys.executable, "-m", "litl.report", str(run_dir)],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert report.returncode == 0, report.stderr[-3000:]
     assert "random_projection" in (run_dir / "summary.md").read_text()

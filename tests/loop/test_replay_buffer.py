@@ -97,9 +97,8 @@ def test_velocities_are_kept_beside_their_snapshots():
     buffer = ReplayBuffer.empty(4, GRID, 2)
     given = jnp.asarray([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
     buffer = jax.jit(replay_buffer.add)(buffer, snapshots(0, 3), given)
-    buffer = replay_buffer.add(buffer, snapshots(3, 3), given + 10)       # wraps: slots 3, 0, 1
-    np.testing.assert_array_equal(buffer.velocities,
-                                  [[13.0, 14.0], [15.0, 16.0], [5.0, 6.0], [11.0, 12.0]])
+    buffer = replay_buffer.add(buffer, snapshots(3, 3), given + 10)  # wraps: slots 3, 0, 1
+    np.testing.assert_array_equal(buffer.velocities, [[13.0, 14.0], [15.0, 16.0], [5.0, 6.0], [11.0, 12.0]])
     # Without velocities a snapshot's own occupied-node mean stands in.
     field = np.zeros((1,) + GRID + (2,), np.float32)
     field[0, 1:3, 0] = (1.0, -2.0)

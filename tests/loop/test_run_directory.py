@@ -25,20 +25,31 @@ time.sleep(120)
 
 
 def test_a_second_process_on_a_run_directory_stops_at_once_and_touches_nothing(tmp_path):
-    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(tmp_path)], cwd=ROOT,
-                              stdout=subprocess.PIPE, text=True,
-                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLD, str(tmp_path)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     try:
         assert holder.stdout.readline().strip() == "locked"
-        with pytest.raises(RunDirectoryError, match=f"in use by another litl run \\(process "
-                                                    f"{holder.pid}\\).*Nothing was changed"):
+        with pytest.raises(
+            RunDirectoryError,
+            match=f"in use by another litl run \\(process {holder.pid}\\).*Nothing was changed",
+        ):
             run(tiny_robot(), tiny_config(), tmp_path, progress=False)
         assert sorted(p.name for p in tmp_path.iterdir()) == [".lock"]
         # The same through the CLI (no .hydra/, no litl.log written before the lock is taken).
         before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
-        done = subprocess.run([sys.executable, "-m", "litl", "+scale=smoke",
-                               f"hydra.run.dir={tmp_path}"], cwd=tmp_path, capture_output=True,
-                              text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        done = subprocess.run(
+            [sys.executable, "-m", "litl", "+scale=smoke", f"hydra.run.dir={tmp_path}"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+        )
         assert done.returncode == 2, done.stderr[-2000:]
         assert "in use by another litl run" in done.stderr
         assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
@@ -67,7 +78,7 @@ def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, c
     damage(checkpoints / "2")
     resumed = run(tiny_robot(), config, directory, progress=False).metrics
     assert "checkpoint 2 (episodes done) could not be restored" in capfd.readouterr().err
-    assert (checkpoints / "damaged-2").is_dir()          # kept aside, not deleted
+    assert (checkpoints / "damaged-2").is_dir()  # kept aside, not deleted
     for mine, theirs in zip(resumed, reference, strict=True):
         assert mine["task_loss"] == theirs["task_loss"]
     assert len(lines(directory / "metrics.jsonl")) == len(reference)
@@ -78,7 +89,7 @@ def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, c
             meta.unlink()
     with pytest.raises(CheckpointError, match="no checkpoint in .* can be restored.*new run"):
         run(tiny_robot(), config, directory, progress=False)
-    assert len(lines(directory / "metrics.jsonl")) == len(reference)   # nothing lost
+    assert len(lines(directory / "metrics.jsonl")) == len(reference)  # nothing lost
 
 
 def damage(checkpoint: pathlib.Path) -> None:
@@ -88,7 +99,7 @@ def damage(checkpoint: pathlib.Path) -> None:
 
 def test_a_checkpoint_damaged_twice_is_kept_aside_under_a_free_name(tmp_path):
     checkpoints = Checkpoints(tmp_path)
-    state = {"w": np.random.default_rng(0).normal(size=20000)}   # incompressible: the data file is the biggest
+    state = {"w": np.random.default_rng(0).normal(size=20000)}  # incompressible: the data file is the biggest
     counters = {"episodes": np.asarray(0)}
     for episodes in (1, 2):
         checkpoints.save(episodes, {"w": state["w"] * episodes}, {"episodes": np.asarray(episodes)})

@@ -39,8 +39,7 @@ def episode_of(algorithm, batched):
 def test_vmapped_seeds_equal_sequential_runs(x64):
     algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
     seeds = (3, 4)
-    together, measured = episode_of(algorithm, True)(
-        stack_seeds([algorithm.init(s) for s in seeds]))
+    together, measured = episode_of(algorithm, True)(stack_seeds([algorithm.init(s) for s in seeds]))
     alone_episode = episode_of(algorithm, False)
     for index, seed in enumerate(seeds):
         alone, alone_measured = alone_episode(algorithm.init(seed))
@@ -98,15 +97,27 @@ print(json.dumps({"devices": len(placed.sharding.device_set),
 
 
 def test_seeds_spread_over_two_devices_give_the_same_run(tmp_path, x64):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "JAX_ENABLE_X64": "1",
-           "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2"}
-    out = subprocess.run([sys.executable, "-c", SHARDED, str(tmp_path / "two")], cwd=ROOT, env=env,
-                         capture_output=True, text=True, timeout=600)
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "JAX_ENABLE_X64": "1",
+        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2",
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", SHARDED, str(tmp_path / "two")],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     sharded = json.loads(out.stdout.strip().splitlines()[-1])
     assert sharded["devices"] == 2
-    local = run(tiny_robot(), tiny_config(loop={"episodes": 1}, sim={"steps": 40, "dtype": "float64"},
-                             observer={"kind": "kmeans"}),
-                tmp_path / "one", progress=False)
-    np.testing.assert_allclose(sharded["losses"], [m["task_loss"] for m in local.metrics],
-                               rtol=1e-6)
+    local = run(
+        tiny_robot(),
+        tiny_config(loop={"episodes": 1}, sim={"steps": 40, "dtype": "float64"}, observer={"kind": "kmeans"}),
+        tmp_path / "one",
+        progress=False,
+    )
+    np.testing.assert_allclose(sharded["losses"], [m["task_loss"] for m in local.metrics], rtol=1e-6)

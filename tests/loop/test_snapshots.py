@@ -15,15 +15,24 @@ def test_buffer_holds_the_configured_field_and_the_particles_mean_velocity():
     state = algorithm.init(0)
     after, _ = jax.jit(algorithm.bootstrap)(state)
     count = int(after.buffer.count)
-    assert count == 4                                      # 40 steps, a snapshot every 10
+    assert count == 4  # 40 steps, a snapshot every 10
     scene = robot.scene()
-    rollout = make_rollout(scene.config, scene.body, algorithm.policy, 40, snapshot_stride=10,
-                           observe=lambda s: jnp.mean(s.v, axis=0), field=algorithm.field)
-    _, trajectory = jax.jit(rollout)((state.controller, state.observer),
-                                     robot.design_space.to_design(state.design), scene.state)
+    rollout = make_rollout(
+        scene.config,
+        scene.body,
+        algorithm.policy,
+        40,
+        snapshot_stride=10,
+        observe=lambda s: jnp.mean(s.v, axis=0),
+        field=algorithm.field,
+    )
+    _, trajectory = jax.jit(rollout)(
+        (state.controller, state.observer), robot.design_space.to_design(state.design), scene.state
+    )
     np.testing.assert_allclose(after.buffer.fields[:count], trajectory.snapshots, atol=1e-6)
-    np.testing.assert_allclose(after.buffer.velocities[:count], trajectory.observations[9::10],
-                               rtol=1e-3, atol=5e-5)   # float32 differences of centroids
+    np.testing.assert_allclose(
+        after.buffer.velocities[:count], trajectory.observations[9::10], rtol=1e-3, atol=5e-5
+    )  # float32 differences of centroids
     # Mass-weighted: the light boundary nodes read less than momentum / mass would.
     velocity = make_algorithm(robot, tiny_config(observer={"vae": {"field": "velocity"}}))
     plain, _ = jax.jit(velocity.bootstrap)(velocity.init(0))

@@ -16,8 +16,10 @@ from tests.loop.tiny import tiny_config, tiny_robot
 
 
 def _same(a, b):
-    return all(np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
-               for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)))
+    return all(
+        np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
+        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b))
+    )
 
 
 def test_a_blown_up_iteration_updates_nothing_and_says_why():
@@ -30,8 +32,15 @@ def test_a_blown_up_iteration_updates_nothing_and_says_why():
     assert SKIP_REASONS[int(metrics["skipped"])] in ("particles_escaped", "simulation_nonfinite")
     assert int(metrics["first_nonfinite_step"]) >= 0
     assert int(after.consecutive_skips) == 1 and int(after.iteration) == 1
-    for field in ("controller", "design", "controller_optimizer", "design_optimizer", "buffer",
-                  "observer", "best"):
+    for field in (
+        "controller",
+        "design",
+        "controller_optimizer",
+        "design_optimizer",
+        "buffer",
+        "observer",
+        "best",
+    ):
         assert _same(getattr(after, field), getattr(blown, field)), field
     assert float(after.best.task_loss) == np.inf
 
@@ -57,16 +66,21 @@ def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():
     assert int(metrics["skipped"]) == 0 and int(after.consecutive_skips) == 0
     assert float(after.best.task_loss) == float(metrics["task_loss"])
     assert int(after.best.step) == 0
-    assert _same(after.best.controller, state.controller)   # the parameters that were simulated
-    assert not _same(after.controller, state.controller)    # ... then updated
+    assert _same(after.best.controller, state.controller)  # the parameters that were simulated
+    assert not _same(after.controller, state.controller)  # ... then updated
     assert int(after.buffer.count) == 4
 
 
 def _falling_robot():
     """The tiny biped over an open floor under strong gravity: it falls out of the grid."""
     robot = tiny_robot()
-    config = SimConfig(robot.config.grid_shape, robot.config.dx, robot.config.dt, (0.0, -60.0),
-                       boundary=Boundary.box(2, floor="open"))
+    config = SimConfig(
+        robot.config.grid_shape,
+        robot.config.dx,
+        robot.config.dt,
+        (0.0, -60.0),
+        boundary=Boundary.box(2, floor="open"),
+    )
     return Robot("falling", robot.layout, config, task=robot.task, steps=robot.steps)
 
 
@@ -78,11 +92,10 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
     assert "has failed 5 iterations in a row" in err
     for record in result.metrics:
         assert record["skipped"] == "particles_escaped"
-        assert record["design"] == [20.0] * 4                  # never updated
+        assert record["design"] == [20.0] * 4  # never updated
     assert [r["consecutive_skips"] for r in result.metrics if r["seed"] == 0] == [1, 2, 3, 4, 5, 6]
     best = json.loads((tmp_path / "best.json").read_text())
-    assert best == [{"seed": 0, "task_loss": None, "step": -1},
-                    {"seed": 1, "task_loss": None, "step": -1}]
+    assert best == [{"seed": 0, "task_loss": None, "step": -1}, {"seed": 1, "task_loss": None, "step": -1}]
     written = draw_run(_falling_robot(), config, result, tmp_path)
     err = capsys.readouterr().err
     assert "pictures: skipping seed 0" in err and "pictures: skipping seed 1" in err
@@ -96,9 +109,9 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     algorithm = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": 0.0}}))
     pieces = algorithm.learn.__self__
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
-    assert bool(state.stats.update_accepted)                      # the bootstrap is not checked
+    assert bool(state.stats.update_accepted)  # the bootstrap is not checked
     safe = jax.jit(pieces.update_is_safe, static_argnums=2)
-    assert bool(safe(state, state.observer, 0.0))                 # the same observer: no worse
+    assert bool(safe(state, state.observer, 0.0))  # the same observer: no worse
     broken = state.observer.replace(scale=jnp.full_like(state.observer.scale, jnp.nan))
     assert not bool(safe(state, broken, 0.0))
     # A refused step leaves Θ as it was; an accepted one moves it.
@@ -128,18 +141,23 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
 def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     """loop.step_back_tolerance: the anchor's step is retaken at half the size (no simulation
     repeated), at most three times in a row; then the next result is accepted."""
-    algorithm = make_algorithm(tiny_robot(), tiny_config(
-        observer={"kind": "kmeans"},
-        # constant step sizes: every retaken step is exactly half the last
-        loop={"safeguards": {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}}))
+    algorithm = make_algorithm(
+        tiny_robot(),
+        tiny_config(
+            observer={"kind": "kmeans"},
+            # constant step sizes: every retaken step is exactly half the last
+            loop={"safeguards": {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}},
+        ),
+    )
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
     first, metrics = optimize(start)
     # The anchor keeps the iteration's loss: XLA may compute one value twice for two outputs, so
     # equal to float32 rounding (of centroids ~0.3 apart by ~4e-5 here), not bit for bit.
     assert not bool(metrics["stepped_back"])
-    np.testing.assert_allclose(float(first.anchor.task_loss), float(metrics["task_loss"]),
-                               rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(
+        float(first.anchor.task_loss), float(metrics["task_loss"]), rtol=1e-5, atol=1e-7
+    )
     full_step = jax.tree.map(lambda a, b: a - b, first.controller, start.controller)
     # Pretend the anchor had done far better: every result now counts as a fall.
     state = first.replace(anchor=first.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
@@ -149,14 +167,17 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
         expected = jax.tree.map(lambda a, u: a + u * 0.5**halvings, start.controller, full_step)
         for got, want in zip(jax.tree.leaves(state.controller), jax.tree.leaves(expected)):
             np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7)
-    state, metrics = optimize(state)                 # three halvings: accepted whatever it is
+    state, metrics = optimize(state)  # three halvings: accepted whatever it is
     assert not bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 1.0
     assert int(state.iteration) == 5
     # Off (None, the paper's loop): never.
-    plain = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"},
-                                                     loop={"safeguards": {"step_back_tolerance": None}}))
-    _, metrics = jax.jit(plain.optimize)(plain.init(0).replace(
-        anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32))))
+    plain = make_algorithm(
+        tiny_robot(),
+        tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}),
+    )
+    _, metrics = jax.jit(plain.optimize)(
+        plain.init(0).replace(anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
+    )
     assert not bool(metrics["stepped_back"])
 
 
@@ -164,9 +185,14 @@ def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():
     """loop.final_learning_rate_fraction: the same gradients move θ the full step at the first
     iteration, the configured fraction of it at the run's last (K x M = 4 here), and the cosine's
     value in between; optimizer states are those of the constant-step run."""
+
     def step(fraction, iteration):
-        algorithm = make_algorithm(tiny_robot(), tiny_config(
-            observer={"kind": "kmeans"}, loop={"safeguards": {"final_learning_rate_fraction": fraction}}))
+        algorithm = make_algorithm(
+            tiny_robot(),
+            tiny_config(
+                observer={"kind": "kmeans"}, loop={"safeguards": {"final_learning_rate_fraction": fraction}}
+            ),
+        )
         start = algorithm.init(0).replace(iteration=jnp.asarray(iteration, jnp.int32))
         after, _ = jax.jit(algorithm.optimize)(start)
         return jax.tree.map(lambda a, b: a - b, after.controller, start.controller), after

@@ -15,8 +15,7 @@ def _numbers(d):
     return (f"N{spatial}C", f"{spatial}IO", f"N{spatial}C")
 
 
-@pytest.mark.parametrize("spatial,kernel", [((9, 6), 3), ((8, 7), 2), ((5, 4, 6), 3),
-                                            ((4, 4, 4), 4)])
+@pytest.mark.parametrize("spatial,kernel", [((9, 6), 3), ((8, 7), 2), ((5, 4, 6), 3), ((4, 4, 4), 4)])
 def test_strided_and_transposed_convolutions_equal_lax(spatial, kernel, x64):
     d = len(spatial)
     keys = jax.random.split(jax.random.PRNGKey(0), 4)
@@ -25,8 +24,7 @@ def test_strided_and_transposed_convolutions_equal_lax(spatial, kernel, x64):
     expected = lax.conv_general_dilated(x, w, (2,) * d, "SAME", dimension_numbers=_numbers(d))
     np.testing.assert_allclose(conv.strided_conv(x, w), expected, rtol=1e-12, atol=1e-12)
     expected_t = lax.conv_transpose(x, w, (2,) * d, "SAME", dimension_numbers=_numbers(d))
-    np.testing.assert_allclose(conv.strided_conv_transpose(x, w), expected_t, rtol=1e-12,
-                               atol=1e-12)
+    np.testing.assert_allclose(conv.strided_conv_transpose(x, w), expected_t, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("transpose", [False, True])
@@ -37,14 +35,14 @@ def test_the_layer_has_flaxs_parameters_outputs_and_gradients(transpose, x64):
     for implementation in ("xla", "matmul"):
         layer = conv.StridedConv(4, 3, implementation, transpose=transpose)
         mine = layer.init(jax.random.PRNGKey(2), x)
-        assert jax.tree_util.tree_all(jax.tree_util.tree_map(
-            lambda a, b: bool(jnp.array_equal(a, b)), mine, params))
+        assert jax.tree_util.tree_all(
+            jax.tree_util.tree_map(lambda a, b: bool(jnp.array_equal(a, b)), mine, params)
+        )
 
         def loss(p, model):
             return jnp.sum(jnp.sin(model.apply(p, x)))
 
-        np.testing.assert_allclose(layer.apply(params, x), reference.apply(params, x),
-                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(layer.apply(params, x), reference.apply(params, x), rtol=1e-12, atol=1e-12)
         grads = jax.grad(loss)(params, layer), jax.grad(loss)(params, reference)
         for a, b in zip(*map(jax.tree_util.tree_leaves, grads)):
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)

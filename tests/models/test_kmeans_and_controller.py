@@ -41,7 +41,8 @@ def test_controller_outputs_bounded_actuation_and_uses_every_input():
     out = controller.apply(params, features, task, 0.1)
     assert out.shape == (3,) and bool(jnp.all(jnp.abs(out) <= 1.0))
     grads = jax.grad(lambda f, t, s: jnp.sum(controller.apply(params, f, t, s)), argnums=(0, 1, 2))(
-        features, task, 0.1)
+        features, task, 0.1
+    )
     assert all(float(jnp.abs(g).sum()) > 0 for g in grads)
 
 
@@ -62,10 +63,10 @@ def test_feature_scale_is_an_input_gain_on_the_features_only():
     scaled = MLPController(n_actuators=2, widths=(8,), period=0.5, feature_scale=0.25)
     features = jnp.asarray([0.3, -1.2, 2.0])
     params = plain.init(jax.random.key(0), features, time=0.0)
-    np.testing.assert_allclose(scaled.apply(params, features, time=0.3),
-                               plain.apply(params, 0.25 * features, time=0.3), rtol=1e-6)
-    assert not np.allclose(scaled.apply(params, features, time=0.3),
-                           plain.apply(params, features, time=0.3))
+    np.testing.assert_allclose(
+        scaled.apply(params, features, time=0.3), plain.apply(params, 0.25 * features, time=0.3), rtol=1e-6
+    )
+    assert not np.allclose(scaled.apply(params, features, time=0.3), plain.apply(params, features, time=0.3))
 
 
 def test_closed_loop_rollout_with_kmeans_observer_has_finite_gradients():

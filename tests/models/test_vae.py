@@ -30,8 +30,7 @@ def test_shapes_2d_and_3d(grid_shape):
     model = vae.ConvAutoencoder(grid_shape, latent_dim=5, channels=(4, 4, 8, 8, 8))  # narrow: fast
     params = jax.jit(vae.init_autoencoder, static_argnums=0)(model, jax.random.key(0))
     fields = jnp.ones((3,) + grid_shape + (len(grid_shape),))
-    reconstruction, mean, log_variance = jax.jit(model.apply)(params.network, fields,
-                                                              jax.random.key(1))
+    reconstruction, mean, log_variance = jax.jit(model.apply)(params.network, fields, jax.random.key(1))
     assert reconstruction.shape == fields.shape
     assert mean.shape == log_variance.shape == (3, 5)
     assert vae.make_observer(model)(params, None, fields[0]).shape == (5,)
@@ -149,8 +148,7 @@ def test_momentum_term_is_the_linear_heads_error_on_the_field_mean():
     head = model.apply(params.network, plain["code"], method="momentum")
     expected = jnp.mean((head - jnp.mean(x, axis=(1, 2))) ** 2)
     np.testing.assert_allclose(weighted["total"] - plain["total"], 3.0 * expected, rtol=1e-5)
-    np.testing.assert_allclose(plain["total"], plain["recon"] + 0.5 * plain["kl"] / (32 * 32 * 2),
-                               rtol=1e-6)
+    np.testing.assert_allclose(plain["total"], plain["recon"] + 0.5 * plain["kl"] / (32 * 32 * 2), rtol=1e-6)
     assert float(expected) > 0
 
 
@@ -175,8 +173,12 @@ def test_momentum_term_makes_the_codes_tell_the_fields_mean_linearly():
         r = grid - rng.uniform(0.45, 0.55, 2)
         inside = (np.sum(r**2, -1) < 0.2**2)[..., None]
         spin, swell, shear = rng.normal(0, 3, 3)
-        field = inside * (0.2 * rng.normal(0, 1, 2) + spin * np.stack([-r[..., 1], r[..., 0]], -1)
-                          + swell * r + shear * np.stack([r[..., 1], r[..., 0]], -1))
+        field = inside * (
+            0.2 * rng.normal(0, 1, 2)
+            + spin * np.stack([-r[..., 1], r[..., 0]], -1)
+            + swell * r
+            + shear * np.stack([r[..., 1], r[..., 0]], -1)
+        )
         fields.append(field)
         means.append(field.mean(axis=(0, 1)))
     fields, means = jnp.asarray(np.stack(fields), jnp.float32), np.stack(means)
@@ -196,8 +198,10 @@ def test_momentum_term_makes_the_codes_tell_the_fields_mean_linearly():
         terms = vae.loss_terms(model, params, fields)
         codes = np.asarray(terms["code"], np.float64)
         held = vae.loss_terms(model, params, fields[held_out])
-        scores[weight] = (_readout_r2(codes, means, train, held_out),
-                          float(vae.explained_variance(held["recon"], held["signal"])))
+        scores[weight] = (
+            _readout_r2(codes, means, train, held_out),
+            float(vae.explained_variance(held["recon"], held["signal"])),
+        )
     r2, explained = scores[10.0]
     assert np.all(r2 > 0.9), scores
     assert np.all(scores[0.0][0] < 0.5), scores

@@ -11,7 +11,7 @@ from litl.models.window import Window
 def test_size_is_rounded_up_to_multiples_of_32_nodes_and_capped_by_the_grid():
     assert Window.around((64, 64), 1 / 64, 0.5).shape == (32, 32)
     assert Window.around((128, 128), 1 / 128, 0.5).shape == (64, 64)
-    assert Window.around((128, 128), 1 / 128, 0.3).shape == (64, 64)      # 38.4 nodes -> 64
+    assert Window.around((128, 128), 1 / 128, 0.3).shape == (64, 64)  # 38.4 nodes -> 64
     assert Window.around((64, 32, 32), 1 / 32, 0.5).shape == (32, 32, 32)  # 16 -> 32
     assert Window.around((64, 64), 1 / 64, 2.0).whole_grid
     assert Window.around((64, 64), 1 / 64, None).whole_grid

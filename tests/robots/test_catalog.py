@@ -9,8 +9,7 @@ import litl.robots
 from litl.models.open_loop import SinusoidParams, sinusoid_policy
 from litl.sim import make_rollout, raise_if_unhealthy, validate
 
-PAPER_ROBOTS = ["arm", "biped", "bunny", "curved_quadruped", "elephant", "hexapod", "quadruped",
-                "rhino"]
+PAPER_ROBOTS = ["arm", "biped", "bunny", "curved_quadruped", "elephant", "hexapod", "quadruped", "rhino"]
 
 
 def test_names_lists_the_papers_robots():
@@ -35,7 +34,8 @@ def test_robot_builds_inside_the_domain_and_simulates_200_steps(name):
     validate(scene.config, scene.body, scene.design, scene.state)
     params = SinusoidParams(
         weights=jnp.asarray(np.random.default_rng(0).normal(0, 0.5, (robot.n_actuators, 4)), jnp.float32),
-        bias=jnp.zeros(robot.n_actuators))
+        bias=jnp.zeros(robot.n_actuators),
+    )
     rollout = jax.jit(make_rollout(config, scene.body, sinusoid_policy(20.0, config.dt), 200))
     final, trajectory = rollout(params, scene.design, scene.state)
     raise_if_unhealthy(trajectory.health, 200)
@@ -89,8 +89,15 @@ def test_arm_cannot_reach_its_target_by_bending_statically():
     target = np.asarray(robot.task.targets["tip"])
     rest = np.asarray(scene.state.x[tip].mean(0))
     sides = jnp.asarray([1.0, -1.0] * (robot.n_actuators // 2))
-    rollout = jax.jit(make_rollout(robot.config, scene.body, lambda sign, s, g: sign * sides,
-                                   robot.steps, observe=lambda s: s.x[tip].mean(0)))
+    rollout = jax.jit(
+        make_rollout(
+            robot.config,
+            scene.body,
+            lambda sign, s, g: sign * sides,
+            robot.steps,
+            observe=lambda s: s.x[tip].mean(0),
+        )
+    )
     for sign in (1.0, -1.0):
         _, trajectory = rollout(sign, scene.design, scene.state)
         path = np.asarray(trajectory.observations)
@@ -110,10 +117,16 @@ def test_3d_quadrupeds_carry_their_torsos_without_actuation(name):
     underside = np.flatnonzero(middle & (rest[:, 1] > top - 0.1) & (rest[:, 1] < top - 0.05))
     assert underside.size > 0
     floor = robot.config.boundary.thickness * robot.config.dx
-    rollout = jax.jit(make_rollout(
-        robot.config, scene.body, lambda params, state, grid: jnp.zeros(robot.n_actuators),
-        robot.steps, observe=lambda state: jnp.mean(state.x[underside, 1])))
+    rollout = jax.jit(
+        make_rollout(
+            robot.config,
+            scene.body,
+            lambda params, state, grid: jnp.zeros(robot.n_actuators),
+            robot.steps,
+            observe=lambda state: jnp.mean(state.x[underside, 1]),
+        )
+    )
     _, trajectory = rollout(None, scene.design, scene.state)
     raise_if_unhealthy(trajectory.health, robot.steps)
-    height = np.asarray(trajectory.observations)[robot.steps // 5:] - floor
+    height = np.asarray(trajectory.observations)[robot.steps // 5 :] - floor
     assert height.min() > 0.02, f"the torso's middle came down to {height.min():.3f} above the floor"

@@ -18,18 +18,29 @@ def test_the_design_space_holds_bounds_initial_value_projection_and_map():
     space = robot.design_space
     assert space.bounds == (15.0, 30.0) and space.n_regions == 4
     np.testing.assert_array_equal(space.initial(), [20.0] * 4)
-    np.testing.assert_array_equal(space.project(jnp.asarray([1.0, 16.0, 29.0, 99.0])),
-                                  [15.0, 16.0, 29.0, 30.0])
+    np.testing.assert_array_equal(
+        space.project(jnp.asarray([1.0, 16.0, 29.0, 99.0])), [15.0, 16.0, 29.0, 30.0]
+    )
     # The map to per-particle parameters is differentiable in φ: d(sum E)/dφ_r = particles of r.
     grad = jax.grad(lambda phi: space.to_design(phi).youngs_modulus.sum())(space.initial())
     np.testing.assert_array_equal(grad, np.bincount(robot.layout.region, minlength=4))
 
 
-@pytest.mark.parametrize("material", [
-    Material(), Material(actuator_strength=1.5), Material(youngs_modulus=40.0,
-                                                          youngs_modulus_bounds=(20.0, 80.0)),
-    Material(youngs_modulus=3.0, youngs_modulus_bounds=(2.0, 4.0), density=0.5,
-             actuator_strength=0.3, poisson_ratio=0.4)])
+@pytest.mark.parametrize(
+    "material",
+    [
+        Material(),
+        Material(actuator_strength=1.5),
+        Material(youngs_modulus=40.0, youngs_modulus_bounds=(20.0, 80.0)),
+        Material(
+            youngs_modulus=3.0,
+            youngs_modulus_bounds=(2.0, 4.0),
+            density=0.5,
+            actuator_strength=0.3,
+            poisson_ratio=0.4,
+        ),
+    ],
+)
 def test_the_time_step_puts_the_stiffest_allowed_design_just_below_the_target_cfl(material):
     dx = 1 / 64
     dt = material.time_step(dx)
@@ -39,7 +50,7 @@ def test_the_time_step_puts_the_stiffest_allowed_design_just_below_the_target_cf
     cfl = check_time_step(robot.config, robot.body(), stiffest)
     assert robot.config.dt == dt and 0.9 * TARGET_CFL < cfl <= TARGET_CFL
     assert cfl == pytest.approx(wave_speed(robot.body(), stiffest) * dt / dx)
-    assert abs(robot.steps * dt - 1.0) <= dt / 2                     # the episode lasts 1 s
+    assert abs(robot.steps * dt - 1.0) <= dt / 2  # the episode lasts 1 s
 
 
 def test_the_catalog_materials_give_a_tenth_of_dx():

@@ -10,8 +10,11 @@ from litl.robots import catalog
 
 # The guide's example module (`my_robots.py`); tests/test_cli.py runs it through the CLI.
 GUIDE = pathlib.Path(__file__).resolve().parents[2] / "docs" / "guide" / "robots.md"
-(STOOL_MODULE,) = [block for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-                   if block.startswith("# my_robots.py")]
+(STOOL_MODULE,) = [
+    block
+    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
+    if block.startswith("# my_robots.py")
+]
 
 
 @pytest.fixture
@@ -33,7 +36,7 @@ def test_register_refuses_what_it_cannot_use(registry):
     build = lambda dx: None
     with pytest.raises(ValueError, match="already registered.*replace=True"):
         litl.robots.register("biped", build, dim=2)
-    litl.robots.register("biped", build, dim=2, replace=True)          # allowed when asked
+    litl.robots.register("biped", build, dim=2, replace=True)  # allowed when asked
     with pytest.raises(ValueError, match="non-empty string"):
         litl.robots.register("", build, dim=2)
     with pytest.raises(ValueError, match="dim must be 2 or 3"):

@@ -6,25 +6,44 @@ import numpy as np
 import pytest
 
 from litl.robots import (
-    Box, Layout, LayoutError, Locomotion, Material, Part, Reach, Robot, Task, make_task_loss, place,
-    sample_parts)
+    Box,
+    Layout,
+    LayoutError,
+    Locomotion,
+    Material,
+    Part,
+    Reach,
+    Robot,
+    Task,
+    make_task_loss,
+    place,
+    sample_parts,
+)
 from litl.sim import Boundary, ConfigError, SimConfig, SimState, make_rollout
 
-CONFIG = SimConfig(grid_shape=(32, 32), dx=1 / 32, dt=3e-3, gravity=(0.0, -3.8),
-                   boundary=Boundary.box(2))
+CONFIG = SimConfig(grid_shape=(32, 32), dx=1 / 32, dt=3e-3, gravity=(0.0, -3.8), boundary=Boundary.box(2))
 
 
 def small_layout():
-    return sample_parts([
-        Part(Box((0.0, 0.1), (0.25, 0.0625)), groups="torso"),
-        Part(Box((0.0, 0.0), (0.0625, 0.1)), actuator=0, region=1, groups="back_foot"),
-        Part(Box((0.1875, 0.0), (0.0625, 0.1)), actuator=1, region=1, groups="front_foot"),
-    ], CONFIG.dx)
+    return sample_parts(
+        [
+            Part(Box((0.0, 0.1), (0.25, 0.0625)), groups="torso"),
+            Part(Box((0.0, 0.0), (0.0625, 0.1)), actuator=0, region=1, groups="back_foot"),
+            Part(Box((0.1875, 0.0), (0.0625, 0.1)), actuator=1, region=1, groups="front_foot"),
+        ],
+        CONFIG.dx,
+    )
 
 
 def small_robot(task=None, config=CONFIG, material=Material()):
-    return Robot("small", place(small_layout(), config, x=0.2), config, material=material,
-                 task=task or Task(Locomotion()), steps=50)
+    return Robot(
+        "small",
+        place(small_layout(), config, x=0.2),
+        config,
+        material=material,
+        task=task or Task(Locomotion()),
+        steps=50,
+    )
 
 
 def moved(state, shift):
@@ -61,17 +80,21 @@ def test_task_loss_gradient_through_a_rollout_is_finite_and_nonzero(x64):
         return loss(scene.state, final)[0]
 
     grads = jax.jit(jax.grad(objective, argnums=(0, 1)))(
-        jnp.asarray([0.5, -0.5]), robot.design_space.initial(jnp.float64))
+        jnp.asarray([0.5, -0.5]), robot.design_space.initial(jnp.float64)
+    )
     for g in grads:
         assert np.all(np.isfinite(g)) and np.abs(g).sum() > 0
 
 
-@pytest.mark.parametrize("task, message", [
-    (Task(Reach("hand", (0.5, 0.5))), "unknown particle group 'hand'; this robot has"),
-    (Task(Reach("torso", (0.5, 0.5, 0.5))), "finite 2D point"),
-    (Task(Locomotion(axis=2)), "axis 2 does not exist in 2D"),
-    (Task(Locomotion(measure="speed")), "'distance' or 'velocity'"),
-])
+@pytest.mark.parametrize(
+    "task, message",
+    [
+        (Task(Reach("hand", (0.5, 0.5))), "unknown particle group 'hand'; this robot has"),
+        (Task(Reach("torso", (0.5, 0.5, 0.5))), "finite 2D point"),
+        (Task(Locomotion(axis=2)), "axis 2 does not exist in 2D"),
+        (Task(Locomotion(measure="speed")), "'distance' or 'velocity'"),
+    ],
+)
 def test_bad_tasks_fail_when_the_robot_is_built(task, message):
     with pytest.raises(LayoutError, match=message):
         small_robot(task)
@@ -129,7 +152,8 @@ def test_layout_rejects_inconsistent_arrays():
     with pytest.raises(LayoutError, match="numbered 0 ... R-1"):
         Layout(good.positions, good.volume, good.actuator, good.fiber, good.region + 1, good.pinned)
     with pytest.raises(LayoutError, match=r"actuators \[1\] have no particles"):
-        Layout(good.positions, good.volume, np.minimum(good.actuator, 0), good.fiber, good.region,
-               good.pinned)
+        Layout(
+            good.positions, good.volume, np.minimum(good.actuator, 0), good.fiber, good.region, good.pinned
+        )
     with pytest.raises(LayoutError, match="volume must have shape"):
         Layout(good.positions, good.volume[:-1], good.actuator, good.fiber, good.region, good.pinned)

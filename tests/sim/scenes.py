@@ -8,9 +8,18 @@ from litl.sim import Body, Boundary, Design, SimConfig, SimState
 
 
 def block(
-    dim=2, n_grid=24, lower=0.35, size=0.25, gravity=-9.8, youngs=300.0,
+    dim=2,
+    n_grid=24,
+    lower=0.35,
+    size=0.25,
+    gravity=-9.8,
+    youngs=300.0,
     constitutive_model="fixed_corotated",
-    n_actuators=2, dtype=jnp.float32, velocity=None, boundary=None, dt=None,
+    n_actuators=2,
+    dtype=jnp.float32,
+    velocity=None,
+    boundary=None,
+    dt=None,
 ):
     """A block whose lower half is split into `n_actuators` actuators along axis 0 (fibers up)."""
     dx = 1.0 / n_grid
@@ -39,8 +48,11 @@ def block(
     mu, lam = (float(p[0]) for p in design.lame())
     speed = np.sqrt((lam + 2 * mu + strength) / density)
     config = SimConfig(
-        grid_shape=(n_grid,) * dim, dx=dx, dt=dt if dt is not None else 0.4 * dx / speed,
-        gravity=tuple(g), constitutive_model=constitutive_model,
+        grid_shape=(n_grid,) * dim,
+        dx=dx,
+        dt=dt if dt is not None else 0.4 * dx / speed,
+        gravity=tuple(g),
+        constitutive_model=constitutive_model,
         boundary=boundary if boundary is not None else Boundary.box(dim),
     )
     v = np.zeros_like(x) if velocity is None else np.broadcast_to(velocity, x.shape)

@@ -9,7 +9,6 @@ import pytest
 
 from litl.sim import ConfigError, make_rollout
 from litl.sim.step import resolve_buffering
-
 from tests.sim.scenes import block, sine_params, sine_policy
 
 SETTINGS = ("none", "fields", "fields_and_nodes")
@@ -38,12 +37,13 @@ def test_every_setting_gives_the_same_values_and_gradients(dim=2, settings=SETTI
     params = sine_params(body.n_actuators)
 
     def value_and_grad(buffering):
-        rollout = make_rollout(dataclasses.replace(config, buffering=buffering), body,
-                               sine_policy, 12, snapshot_stride=4)
+        rollout = make_rollout(
+            dataclasses.replace(config, buffering=buffering), body, sine_policy, 12, snapshot_stride=4
+        )
 
         def loss(p, youngs):
             final, trajectory = rollout(p, design.replace(youngs_modulus=youngs), state)
-            return jnp.mean(final.x[:, 0]) + 1e-3 * jnp.mean(trajectory.snapshots ** 2)
+            return jnp.mean(final.x[:, 0]) + 1e-3 * jnp.mean(trajectory.snapshots**2)
 
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(params, design.youngs_modulus)
 
@@ -75,8 +75,9 @@ def test_3d_node_buffering_gives_the_same_rollout_as_none():
     params = sine_params(body.n_actuators)
 
     def forward(buffering):
-        rollout = make_rollout(dataclasses.replace(config, buffering=buffering), body,
-                               sine_policy, 12, snapshot_stride=4)
+        rollout = make_rollout(
+            dataclasses.replace(config, buffering=buffering), body, sine_policy, 12, snapshot_stride=4
+        )
         return jax.jit(rollout)(params, design, state)
 
     auto, none = forward("auto"), forward("none")

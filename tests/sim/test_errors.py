@@ -5,10 +5,17 @@ import pytest
 
 from litl.robots.primitives import sample_box
 from litl.sim import (
-    Boundary, ConfigError, SimConfig, SimulationError, Wall, check_time_step, make_rollout,
-    raise_if_unhealthy, simulate, validate,
+    Boundary,
+    ConfigError,
+    SimConfig,
+    SimulationError,
+    Wall,
+    check_time_step,
+    make_rollout,
+    raise_if_unhealthy,
+    simulate,
+    validate,
 )
-
 from tests.sim.scenes import block
 
 idle = lambda params, state, grid_velocity: jnp.zeros(2)
@@ -107,8 +114,9 @@ def test_blow_up_is_reported_with_first_bad_step():
     config, body, design, state = block(2, n_grid=24)
     # Bypass the time-step check on purpose (as a jitted optimization loop would).
     config = SimConfig(config.grid_shape, config.dx, config.dt * 6, config.gravity)
-    _, trajectory = make_rollout(config, body, idle, 300)(None, design.replace(
-        youngs_modulus=design.youngs_modulus * 10), state)
+    _, trajectory = make_rollout(config, body, idle, 300)(
+        None, design.replace(youngs_modulus=design.youngs_modulus * 10), state
+    )
     step = int(trajectory.health.first_nonfinite_step)
     assert 0 <= step < 300
     with pytest.raises(SimulationError, match=f"non-finite values .* at step {step}"):
@@ -117,6 +125,7 @@ def test_blow_up_is_reported_with_first_bad_step():
 
 def test_batched_health_names_the_failing_entry():
     from litl.sim import Health
+
     health = Health(first_nonfinite_step=jnp.array([-1, 12]), first_escape_step=jnp.array([-1, -1]))
     with pytest.raises(SimulationError, match=r"step 12 \(batch entry 1\)"):
         raise_if_unhealthy(health)

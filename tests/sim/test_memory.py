@@ -7,10 +7,12 @@ import pytest
 
 from litl.sim import make_rollout
 from litl.sim.memory import (
-    MemoryBudgetError, default_budget_bytes, plan_checkpointing, square_root_segment,
+    MemoryBudgetError,
+    default_budget_bytes,
+    plan_checkpointing,
+    square_root_segment,
     stored_carries,
 )
-
 from tests.sim.scenes import block, sine_params, sine_policy
 
 
@@ -30,21 +32,19 @@ def test_a_budget_too_small_even_for_segments_says_what_to_change():
 
 
 def test_the_default_budget_is_half_the_device_memory():
-    assert 0 < default_budget_bytes() < 2 ** 50
+    assert 0 < default_budget_bytes() < 2**50
 
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_tight_budget_picks_segments_and_the_gradient_is_unchanged(dim, x64):
-    config, body, design, state = block(dim, n_grid=16, lower=0.3, size=0.25, youngs=300.0,
-                                        dtype=jnp.float64)
+    config, body, design, state = block(dim, n_grid=16, lower=0.3, size=0.25, youngs=300.0, dtype=jnp.float64)
     params = sine_params(body.n_actuators, jnp.float64)
     steps = 64
 
     def gradient(**memory):
         rollout = make_rollout(config, body, sine_policy, steps, snapshot_stride=4, **memory)
         loss = lambda p, e: jnp.mean(rollout(p, design.replace(youngs_modulus=e), state)[0].x)
-        value, grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(
-            params, design.youngs_modulus)
+        value, grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(params, design.youngs_modulus)
         return rollout.plan, value, grads
 
     plain_plan, plain_value, plain_grads = gradient(checkpoint_every=None)
@@ -77,5 +77,5 @@ def test_the_grid_field_counts_only_when_the_policy_reads_it():
         jax.eval_shape(rollout, params, design, state)
         return rollout.plan.carry_bytes
 
-    field_bytes = 16 * 16 * 2 * 4     # the 2D grid velocity, float32
+    field_bytes = 16 * 16 * 2 * 4  # the 2D grid velocity, float32
     assert planned(reading) - planned(sine_policy) == field_bytes

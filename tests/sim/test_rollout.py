@@ -7,7 +7,6 @@ import pytest
 
 from litl.sim import make_rollout, make_step, rasterize
 from litl.sim.step import Components
-
 from tests.sim.scenes import block, sine_params, sine_policy
 
 
@@ -20,7 +19,8 @@ def test_snapshots_are_strided_grid_velocities(x64):
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25, dtype=jnp.float64)
     params = sine_params(body.n_actuators, jnp.float64)
     final, trajectory = jax.jit(make_rollout(config, body, sine_policy, 23, snapshot_stride=5))(
-        params, design, state)
+        params, design, state
+    )
     assert trajectory.snapshots.shape == (4, 24, 24, 2)
     assert trajectory.observations.shape == (23, 2)
     # Replay with single steps: snapshot k is the grid velocity of step 5(k+1) - 1.
@@ -31,8 +31,7 @@ def test_snapshots_are_strided_grid_velocities(x64):
         s, grid = step(s, sine_policy(params, s, grid_velocity), design)
         grid_velocity = grid.velocity
         if (index + 1) % 5 == 0:
-            np.testing.assert_allclose(trajectory.snapshots[(index + 1) // 5 - 1], grid.velocity,
-                                       atol=1e-12)
+            np.testing.assert_allclose(trajectory.snapshots[(index + 1) // 5 - 1], grid.velocity, atol=1e-12)
         np.testing.assert_allclose(trajectory.observations[index], jnp.mean(s.x, 0), atol=1e-12)
     np.testing.assert_allclose(final.x, s.x, atol=1e-12)
     assert int(final.step) == 23
@@ -44,7 +43,7 @@ def test_closed_loop_contract_step_k_sees_the_grid_after_step_k_minus_1(x64):
     grid it sees (actuators of zero strength, so the readout does not change the motion)."""
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25, dtype=jnp.float64)
     design = design.replace(actuator_strength=jnp.zeros_like(design.actuator_strength))
-    state = state.replace(v=state.v + jnp.asarray([0.5, -0.2]))      # a field that is not zero
+    state = state.replace(v=state.v + jnp.asarray([0.5, -0.2]))  # a field that is not zero
     weights = jnp.linspace(-1.0, 1.0, config.grid_shape[0] * config.grid_shape[1] * 2)
 
     def readout(grid_velocity):
@@ -59,7 +58,7 @@ def test_closed_loop_contract_step_k_sees_the_grid_after_step_k_minus_1(x64):
         current, grid = step(current, jnp.zeros(body.n_actuators), design)
         seen.append(grid.velocity)
     expected = jnp.stack([readout(g) for g in seen])
-    assert float(jnp.max(jnp.abs(jnp.diff(expected[:, 0])))) > 1e-6   # the grids differ per step
+    assert float(jnp.max(jnp.abs(jnp.diff(expected[:, 0])))) > 1e-6  # the grids differ per step
     np.testing.assert_allclose(trajectory.actuation, expected, rtol=1e-12, atol=1e-14)
 
 
@@ -83,8 +82,7 @@ def test_vmap_over_two_designs_equals_two_runs(scene):
     params = sine_params(body.n_actuators)
     rollout = make_rollout(config, body, sine_policy, 40, snapshot_stride=10)
     designs = jax.tree.map(lambda a: jnp.stack([a, a * 1.5]), design)
-    batched_final, batched_traj = jax.jit(jax.vmap(rollout, in_axes=(None, 0, None)))(
-        params, designs, state)
+    batched_final, batched_traj = jax.jit(jax.vmap(rollout, in_axes=(None, 0, None)))(params, designs, state)
     for i in range(2):
         single = jax.tree.map(lambda a: a[i], designs)
         final, trajectory = jax.jit(rollout)(params, single, state)
@@ -125,11 +123,14 @@ def test_segment_checkpointing_changes_nothing_but_memory(stride, every, x64):
     params = sine_params(body.n_actuators, jnp.float64)
 
     def run(checkpoint_every):
-        rollout = make_rollout(config, body, sine_policy, 37, snapshot_stride=stride,
-                               checkpoint_every=checkpoint_every)
+        rollout = make_rollout(
+            config, body, sine_policy, 37, snapshot_stride=stride, checkpoint_every=checkpoint_every
+        )
+
         def loss(p):
-            out = rollout(p, design, state)      # one rollout: tracing two doubles compilation
+            out = rollout(p, design, state)  # one rollout: tracing two doubles compilation
             return jnp.mean(out[0].x[:, 0]), out
+
         return jax.jit(jax.value_and_grad(loss, has_aux=True))(params)
 
     (v1, out1), g1 = run(None)
@@ -151,8 +152,9 @@ def test_a_passive_body_rolls_out(stride=5):
     """A body without actuators (a falling block, a passive obstacle) simulates; its actuation
     record is (steps, 0)."""
     config, body, design, state = block(n_actuators=0)
-    rollout = make_rollout(config, body, lambda params, state, grid: jnp.zeros((0,)), 12,
-                           snapshot_stride=stride)
+    rollout = make_rollout(
+        config, body, lambda params, state, grid: jnp.zeros((0,)), 12, snapshot_stride=stride
+    )
     final, trajectory = jax.jit(rollout)(None, design, state)
     assert trajectory.actuation.shape == (12, 0)
     assert np.all(np.isfinite(final.x)) and float(jnp.mean(final.x[:, 1] - state.x[:, 1])) < 0

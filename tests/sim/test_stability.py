@@ -12,10 +12,10 @@ import pytest
 
 import litl.robots
 from litl.models.open_loop import SinusoidParams, sinusoid_policy
+from litl.robots import walker2d
 from litl.robots.robot import Material, Robot
 from litl.sim import ConfigError, check_actuation, check_time_step, make_rollout
 from litl.sim.safety import MAX_ACTIVE_STRAIN, MAX_CFL
-from litl.robots import walker2d
 
 # Reached by Adam (lr 0.01) after 95 iterations from small random weights (float32).
 TRAINED_WEIGHTS = [
@@ -40,11 +40,11 @@ def test_trained_biped_gait_stays_finite_with_finite_gradient(youngs_modulus):
         design = space.to_design(space.uniform(space.bounds[0]))
     else:
         design = scene.design
-    params = SinusoidParams(jnp.asarray(TRAINED_WEIGHTS, jnp.float32),
-                            jnp.asarray(TRAINED_BIAS, jnp.float32))
+    params = SinusoidParams(jnp.asarray(TRAINED_WEIGHTS, jnp.float32), jnp.asarray(TRAINED_BIAS, jnp.float32))
     policy = sinusoid_policy(omega=30.0, dt=robot.config.dt)
-    rollout = make_rollout(robot.config, scene.body, policy, robot.steps,
-                           observe=lambda state: jnp.min(_det(state.F)))
+    rollout = make_rollout(
+        robot.config, scene.body, policy, robot.steps, observe=lambda state: jnp.min(_det(state.F))
+    )
     task_loss = robot.task_loss()
 
     def loss(p):
@@ -78,6 +78,7 @@ def test_the_published_walker_is_accepted():
 def test_time_step_that_blew_up_the_biped_is_refused():
     robot = litl.robots.get("biped", dx=1 / 64)
     import dataclasses
+
     config = dataclasses.replace(robot.config, dt=0.128 * robot.config.dx)  # CFL 0.80
     stiffest = robot.design_space.to_design(robot.design_space.uniform(30.0))
     with pytest.raises(ConfigError, match="time step dt=.*too large"):
@@ -87,7 +88,10 @@ def test_time_step_that_blew_up_the_biped_is_refused():
 def test_actuators_that_crush_the_softest_design_are_refused():
     robot = litl.robots.get("biped", dx=1 / 64)
     crushing = Material(youngs_modulus=20.0, youngs_modulus_bounds=(5.0, 30.0), actuator_strength=4.0)
-    with pytest.raises(ConfigError, match=r"actuators are too strong.*active strain of 0\.667.*"
-                                          r"lambda \+ 2 mu >= 20"):
+    with pytest.raises(
+        ConfigError,
+        match=r"actuators are too strong.*active strain of 0\.667.*"
+        r"lambda \+ 2 mu >= 20",
+    ):
         Robot("biped", robot.layout, robot.config, material=crushing, task=robot.task)
     assert check_actuation(robot.body(), robot.design_space.to_design()) <= MAX_ACTIVE_STRAIN

@@ -42,18 +42,23 @@ def test_vmapped_scatter_and_gather_match_single_calls(batched, x64):
     value_axis = None if batched == "base" else 0
     if batched == "base":
         values, grids = [values[0]] * 3, [grids[0]] * 3
-    scatter = jax.vmap(lambda b, v: transfer.scatter_to_grid(
-        stencils[0].replace(base=b), v, SHAPE), in_axes=(base_axis, value_axis))
-    gather = jax.vmap(lambda b, g: transfer.gather_from_grid(
-        stencils[0].replace(base=b), g), in_axes=(base_axis, value_axis))
+    scatter = jax.vmap(
+        lambda b, v: transfer.scatter_to_grid(stencils[0].replace(base=b), v, SHAPE),
+        in_axes=(base_axis, value_axis),
+    )
+    gather = jax.vmap(
+        lambda b, g: transfer.gather_from_grid(stencils[0].replace(base=b), g),
+        in_axes=(base_axis, value_axis),
+    )
     bases = stacked([s.base for s in stencils]) if base_axis == 0 else stencils[0].base
     vs = stacked(values) if value_axis == 0 else values[0]
     gs = stacked(grids) if value_axis == 0 else grids[0]
     out_scatter, out_gather = jax.jit(scatter)(bases, vs), jax.jit(gather)(bases, gs)
     for k in range(3):
         np.testing.assert_allclose(out_scatter[k], _dense_scatter(stencils[k], values[k]), atol=1e-12)
-        np.testing.assert_allclose(out_gather[k], transfer.gather_from_grid(stencils[k], grids[k]),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            out_gather[k], transfer.gather_from_grid(stencils[k], grids[k]), atol=1e-12
+        )
 
 
 def test_scatter_and_gather_are_adjoint_under_vmap_and_grad(x64):
@@ -65,7 +70,7 @@ def test_scatter_and_gather_are_adjoint_under_vmap_and_grad(x64):
     def loss(b, v, w):
         grid = transfer.scatter_to_grid(stencils[0].replace(base=b), v, SHAPE)
         back = transfer.gather_from_grid(stencils[0].replace(base=b), jnp.sin(grid) * w)
-        return jnp.sum(back ** 2)
+        return jnp.sum(back**2)
 
     per_entry = jax.jit(jax.vmap(jax.grad(loss, argnums=1)))(bases, values, weights)
     of_sum = jax.jit(jax.grad(lambda v: jnp.sum(jax.vmap(loss)(bases, v, weights))))(values)
@@ -73,9 +78,7 @@ def test_scatter_and_gather_are_adjoint_under_vmap_and_grad(x64):
         single = jax.grad(loss, argnums=1)(bases[k], values[k], weights[k])
         np.testing.assert_allclose(per_entry[k], single, atol=1e-10)
         np.testing.assert_allclose(of_sum[k], single, atol=1e-10)
-    nested = jax.vmap(jax.vmap(loss, in_axes=(None, 0, None)), in_axes=(0, None, 0))(
-        bases, values, weights)
+    nested = jax.vmap(jax.vmap(loss, in_axes=(None, 0, None)), in_axes=(0, None, 0))(bases, values, weights)
     for i in range(2):
         for j in range(2):
-            np.testing.assert_allclose(nested[i, j], loss(bases[i], values[j], weights[i]),
-                                       rtol=1e-12)
+            np.testing.assert_allclose(nested[i, j], loss(bases[i], values[j], weights[i]), rtol=1e-12)

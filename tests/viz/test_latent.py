@@ -18,7 +18,10 @@ from litl.models.vae import AutoencoderParams, ConvAutoencoder, make_observer  #
 from litl.sim import make_rollout  # noqa: E402
 from litl.viz import VizError  # noqa: E402
 from litl.viz.latent import (  # noqa: E402
-    cluster_colors, draw_clusters, draw_latent_sweeps, draw_snapshots,
+    cluster_colors,
+    draw_clusters,
+    draw_latent_sweeps,
+    draw_snapshots,
 )
 from litl.viz.saliency import animate_saliency, saliency  # noqa: E402
 
@@ -96,8 +99,9 @@ def test_snapshots_show_fields_codes_and_reconstructions(model, observer, tmp_pa
     np.testing.assert_allclose([p.get_height() for p in code[2].patches], mean[2], rtol=1e-5)
     # Panels go snapshot by snapshot, x then y; x along the image's columns, up along its rows.
     np.testing.assert_array_equal(velocity[2 * 1 + 1].images[0].get_array(), fields[1, ..., 1].T)
-    np.testing.assert_allclose(recon[2 * 2 + 0].images[0].get_array(), decoded[2, ..., 0].T,
-                               rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(
+        recon[2 * 2 + 0].images[0].get_array(), decoded[2, ..., 0].T, rtol=1e-5, atol=1e-7
+    )
     # Red negative, blue positive, on one symmetric range that shows the field: the inputs' 98th
     # percentile of |v|, so a lone fast node saturates instead of washing the field out.
     image = velocity[0].images[0]
@@ -128,8 +132,7 @@ def test_latent_sweeps_decode_scaled_one_hot_vectors(model, observer, tmp_path):
 
 def test_3d_fields_are_drawn_as_their_mid_depth_slice():
     model = ConvAutoencoder((8, 8, 6), latent_dim=2, channels=(2, 2, 2, 2, 2))
-    observer = AutoencoderParams(random_params(model, 0, jnp.zeros((1, 8, 8, 6, 3))),
-                                 jnp.asarray(1.0))
+    observer = AutoencoderParams(random_params(model, 0, jnp.zeros((1, 8, 8, 6, 3))), jnp.asarray(1.0))
     fields = blob_fields(1, grid=(8, 8, 6))
     fields[0, :, :, 3, 2] = np.arange(64).reshape(8, 8)  # the middle slice differs from the rest
     fig = draw_snapshots(model, observer, fields)
@@ -172,11 +175,9 @@ def test_saliency_is_gradient_times_field(model, observer, controller, controlle
     assert np.all(result[:, field.sum(-1) == 0] == 0)  # zero where the field is zero
 
 
-def test_saliency_matches_central_differences(x64, model, observer, controller,
-                                               controller_params):
+def test_saliency_matches_central_differences(x64, model, observer, controller, controller_params):
     # The same weights in float64, where central differences are accurate.
-    observer, params = jax.tree.map(lambda a: jnp.asarray(a, jnp.float64),
-                                    (observer, controller_params))
+    observer, params = jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), (observer, controller_params))
     field = blob_fields(1, seed=4)[0].astype(np.float64)
     result = saliency(model, observer, controller, params, field)
     node, component, actuator, h = (10, 12), 0, 2, 1e-5
@@ -190,8 +191,12 @@ def test_saliency_matches_central_differences(x64, model, observer, controller,
     up[node + (component,)] += h
     down[node + (component,)] -= h
     derivative = (float(signal(up)) - float(signal(down))) / (2 * h)
-    np.testing.assert_allclose(result[(actuator,) + node + (component,)],
-                               derivative * field[node + (component,)], rtol=1e-5, atol=1e-12)
+    np.testing.assert_allclose(
+        result[(actuator,) + node + (component,)],
+        derivative * field[node + (component,)],
+        rtol=1e-5,
+        atol=1e-12,
+    )
 
 
 def test_clocked_controller_needs_the_time(model, observer):
@@ -204,15 +209,15 @@ def test_clocked_controller_needs_the_time(model, observer):
     assert not np.allclose(early, late)
 
 
-def test_saliency_animation_has_a_frame_per_snapshot(model, observer, controller,
-                                                     controller_params, tmp_path):
+def test_saliency_animation_has_a_frame_per_snapshot(
+    model, observer, controller, controller_params, tmp_path
+):
     path = tmp_path / "out" / "saliency.gif"
     fields = blob_fields(5, seed=1)
     assert animate_saliency(model, observer, controller, controller_params, fields, path) == path
     with Image.open(path) as gif:
         assert gif.n_frames == 5
-    animate_saliency(model, observer, controller, controller_params, fields, path,
-                     actuator=2, stride=2)
+    animate_saliency(model, observer, controller, controller_params, fields, path, actuator=2, stride=2)
     with Image.open(path) as gif:
         assert gif.n_frames == 3
     assert [p.name for p in path.parent.iterdir()] == ["saliency.gif"]  # no temporary files left
@@ -258,12 +263,14 @@ def test_rollout_snapshots_animate(model, observer, tmp_path):
         features = observe(observer, state, grid_velocity)
         return clocked.apply(policy_params, features, time=state.step * scene.config.dt)
 
-    rollout = jax.jit(make_rollout(scene.config, scene.body, policy, 15, snapshot_stride=5,
-                                   observe=lambda state: (), remat=False))
+    rollout = jax.jit(
+        make_rollout(
+            scene.config, scene.body, policy, 15, snapshot_stride=5, observe=lambda state: (), remat=False
+        )
+    )
     snapshots = np.asarray(rollout(params, scene.design, scene.state)[1].snapshots)
     times = (np.arange(len(snapshots)) + 1) * 5 * scene.config.dt
-    path = animate_saliency(model, observer, clocked, params, snapshots, tmp_path / "biped.gif",
-                            times=times)
+    path = animate_saliency(model, observer, clocked, params, snapshots, tmp_path / "biped.gif", times=times)
     with Image.open(path) as gif:
         assert gif.n_frames == 3
     assert len(panels(draw_snapshots(model, observer, snapshots), "latent")) == 3

@@ -6,10 +6,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import jax.numpy as jnp  # noqa: E402
 import matplotlib.animation as manimation  # noqa: E402
 import matplotlib.colors as mcolors  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
@@ -20,7 +20,13 @@ from litl.robots.shapes import Box, Part, sample_parts  # noqa: E402
 from litl.robots.tasks import Locomotion, Reach, Task  # noqa: E402
 from litl.sim import Boundary, SimConfig, Wall  # noqa: E402
 from litl.viz import (  # noqa: E402
-    VizError, animate_rollout, draw, draw_robot, draw_robot_3d, particle_colors, record_rollout,
+    VizError,
+    animate_rollout,
+    draw,
+    draw_robot,
+    draw_robot_3d,
+    particle_colors,
+    record_rollout,
     rollout_limits,
 )
 from litl.viz.robots import PINNED_COLOR  # noqa: E402
@@ -36,27 +42,43 @@ def close_figures():
 def robot2d():
     """A table walker: passive top, two actuated legs (one pinned foot), two reach targets."""
     # Open ceiling: three walls are drawn.
-    config = SimConfig(grid_shape=(64, 64), dx=1 / 64, dt=1e-3, gravity=(0, -3.8),
-                       boundary=Boundary((Wall(), Wall(), Wall(), Wall("open")), thickness=2))
-    layout = sample_parts([
-        Part(Box((0, 0.1), (0.2, 0.06)), region=0, groups=("top",)),
-        Part(Box((0, 0), (0.05, 0.1)), actuator=0, region=1, groups=("foot",)),
-        Part(Box((0.15, 0), (0.05, 0.1)), actuator=1, region=2),
-        Part(Box((0.15, 0), (0.05, 0.02)), actuator=1, region=2, pinned=True),
-    ], dx=config.dx)
+    config = SimConfig(
+        grid_shape=(64, 64),
+        dx=1 / 64,
+        dt=1e-3,
+        gravity=(0, -3.8),
+        boundary=Boundary((Wall(), Wall(), Wall(), Wall("open")), thickness=2),
+    )
+    layout = sample_parts(
+        [
+            Part(Box((0, 0.1), (0.2, 0.06)), region=0, groups=("top",)),
+            Part(Box((0, 0), (0.05, 0.1)), actuator=0, region=1, groups=("foot",)),
+            Part(Box((0.15, 0), (0.05, 0.1)), actuator=1, region=2),
+            Part(Box((0.15, 0), (0.05, 0.02)), actuator=1, region=2, pinned=True),
+        ],
+        dx=config.dx,
+    )
     task = Task((Locomotion(), Reach("foot", (0.5, 0.3)), Reach("top", (0.6, 0.6))))
     return Robot("demo", place(layout, config, x=0.1), config, task=task)
 
 
 @pytest.fixture(scope="module")
 def robot3d():
-    config = SimConfig(grid_shape=(32, 32, 32), dx=1 / 32, dt=1e-3, gravity=(0, -3.8, 0),
-                       boundary=Boundary.box(3, thickness=2))
-    layout = sample_parts([
-        Part(Box((0, 0.1, 0), (0.2, 0.06, 0.1)), region=0),
-        Part(Box((0, 0, 0), (0.05, 0.1, 0.1)), actuator=0, region=1, groups=("foot",)),
-        Part(Box((0.15, 0, 0), (0.05, 0.1, 0.1)), actuator=1, region=1),
-    ], dx=config.dx)
+    config = SimConfig(
+        grid_shape=(32, 32, 32),
+        dx=1 / 32,
+        dt=1e-3,
+        gravity=(0, -3.8, 0),
+        boundary=Boundary.box(3, thickness=2),
+    )
+    layout = sample_parts(
+        [
+            Part(Box((0, 0.1, 0), (0.2, 0.06, 0.1)), region=0),
+            Part(Box((0, 0, 0), (0.05, 0.1, 0.1)), actuator=0, region=1, groups=("foot",)),
+            Part(Box((0.15, 0, 0), (0.05, 0.1, 0.1)), actuator=1, region=1),
+        ],
+        dx=config.dx,
+    )
     task = Task((Locomotion(), Reach("foot", (0.6, 0.3, 0.5))))
     return Robot("demo3d", place(layout, config, x=0.2), config, task=task)
 
@@ -123,8 +145,9 @@ def test_actuation_recolours_actuated_particles_only(robot2d):
     assert np.all(contracting[:, 2] > contracting[:, 0])
     assert np.all(expanding[:, 0] > expanding[:, 2])
     # Distinct colours per actuator without actuation.
-    assert not np.allclose(plain[moving & (layout.actuator == 0)][0],
-                           plain[moving & (layout.actuator == 1)][0])
+    assert not np.allclose(
+        plain[moving & (layout.actuator == 0)][0], plain[moving & (layout.actuator == 1)][0]
+    )
 
 
 def test_show_regions_colours_by_design_region(robot2d):
@@ -143,22 +166,29 @@ def test_show_regions_colours_by_design_region(robot2d):
 
 def test_stiffness_colours_each_region_by_its_youngs_modulus(robot2d, tmp_path):
     layout = robot2d.layout
-    stiffness = np.asarray([15.0, 30.0, 22.5])             # E per region, on the scale [15, 30]
+    stiffness = np.asarray([15.0, 30.0, 22.5])  # E per region, on the scale [15, 30]
     ax = draw_robot(robot2d, stiffness=stiffness, stiffness_range=(15.0, 30.0), colorbar=True)
     colors = particle_facecolors(ax)
     viridis = plt.get_cmap("viridis")
     free = ~layout.pinned
     for region, value in zip(range(3), (0.0, 1.0, 0.5)):
-        np.testing.assert_allclose(colors[free & (layout.region == region)],
-                                   np.broadcast_to(viridis(value), (np.sum(free & (layout.region == region)), 4)))
+        np.testing.assert_allclose(
+            colors[free & (layout.region == region)],
+            np.broadcast_to(viridis(value), (np.sum(free & (layout.region == region)), 4)),
+        )
     assert ax.figure.axes[-1].get_ylabel() == "Young's modulus E of the region"
     with pytest.raises(VizError, match="one value per design region, shape \\(3,\\)"):
         particle_colors(layout, stiffness=[20.0])
     with pytest.raises(VizError, match="only one"):
         particle_colors(layout, actuation=[0.0, 0.0], stiffness=stiffness)
-    path = animate_rollout(robot2d, np.repeat(layout.positions[None], 2, 0),
-                           np.zeros((2, layout.n_actuators)), tmp_path / "stiff.gif",
-                           stiffness=stiffness, stiffness_range=(15.0, 30.0))
+    path = animate_rollout(
+        robot2d,
+        np.repeat(layout.positions[None], 2, 0),
+        np.zeros((2, layout.n_actuators)),
+        tmp_path / "stiff.gif",
+        stiffness=stiffness,
+        stiffness_range=(15.0, 30.0),
+    )
     assert path.stat().st_size > 0
 
 
@@ -174,8 +204,9 @@ def test_positions_are_drawn_and_a_layout_can_stand_in_for_a_robot(robot2d):
     assert not with_gid(ax, "wall") and not with_gid(ax, "target")
     low, high = robot2d.layout.bounds()
     assert ax.get_xlim()[0] < low[0] and ax.get_xlim()[1] > high[0]
-    pinned_base = dataclasses.replace(robot2d.config, boundary=Boundary.box(
-        2, thickness=2, pinned_boxes=[((0.1, 0.03), (0.2, 0.06))]))
+    pinned_base = dataclasses.replace(
+        robot2d.config, boundary=Boundary.box(2, thickness=2, pinned_boxes=[((0.1, 0.03), (0.2, 0.06))])
+    )
     ax = draw_robot(robot2d.layout, config=pinned_base)
     assert len(with_gid(ax, "pinned_box")) == 1 and len(with_gid(ax, "wall")) == 4
     with pytest.raises(VizError, match="bare Layout"):
@@ -259,7 +290,7 @@ def test_3d_views_frame_the_rollout_not_the_whole_domain(robot3d):
     domain = np.asarray(robot3d.config.domain_size)
     np.testing.assert_allclose(limits[:, 1], np.minimum(high + 0.1, domain))
     np.testing.assert_allclose(limits[[0, 2], 0], np.maximum(low[[0, 2]] - 0.1, 0.0))
-    assert limits[1, 0] == 0.0                          # down to the floor
+    assert limits[1, 0] == 0.0  # down to the floor
     ax = draw_robot_3d(robot3d, positions=positions[1], limits=limits)
     assert ax.get_xlim() == tuple(limits[0]) and ax.get_zlim() == tuple(limits[1])
     with pytest.raises(VizError, match=r"\(3, 2\)"):
