@@ -40,6 +40,7 @@ import numpy as np
 import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from litl import backend
 from litl.config import Config, flatten, seeds_at_once, upgrade
 from litl.errors import UserError
 from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
@@ -264,9 +265,12 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
                 f"no 'config'); it cannot be resumed. Choose a new run directory (`python -m "
                 f"litl.report` still reads it). Nothing was changed."
             )
+        _say_if_backend_changed(run_dir, found)
         # Settings recorded under keys that have moved since, and the observer's description,
-        # which follows from them (what the report reads).
+        # which follows from them (what the report reads); the backend is not a setting.
         found = {**found, "config": upgrade(found["config"]), "observer": wanted["observer"]}
+        found.pop("backend", None)
+        found.pop("resumed_on", None)
         if found != wanted:
             found, wanted_flat = flatten(found), flatten(wanted)
             changed = sorted(k for k in set(found) | set(wanted_flat) if found.get(k) != wanted_flat.get(k))
@@ -275,10 +279,32 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
                 f"with the same settings or choose a new run directory. Nothing was changed."
             )
     else:
-        settings_file.write_text(json.dumps(wanted, indent=1))
+        settings_file.write_text(json.dumps({**wanted, "backend": backend.record()}, indent=1))
     for name, text in config_files.items():
         (run_dir / name).parent.mkdir(parents=True, exist_ok=True)
         (run_dir / name).write_text(text)
+
+
+def _say_if_backend_changed(run_dir: pathlib.Path, found: dict) -> None:
+    """A run resumed in another determinism mode or on another platform than it started on is
+    told so, and run.json lists the backends it was resumed on: its results can no longer be
+    expected to equal an uninterrupted run's bit for bit."""
+    started, now = found.get("backend"), backend.record()
+    if started is None:
+        return
+    differs = [key for key in ("determinism", "platform") if started.get(key) != now[key]]
+    if not differs:
+        return
+    was = ", ".join(f"{key} {started.get(key)}" for key in differs)
+    is_now = ", ".join(f"{key} {now[key]}" for key in differs)
+    say(
+        f"litl: warning: {run_dir} was started with {was} and is resumed with {is_now}: the "
+        f"resumed run will not equal an uninterrupted one bit for bit (set {backend.SWITCH}="
+        f"{started.get('determinism')} to resume in the mode it started in)."
+    )
+    recorded = json.loads((run_dir / "run.json").read_text())
+    recorded.setdefault("resumed_on", []).append(now)
+    (run_dir / "run.json").write_text(json.dumps(recorded, indent=1))
 
 
 class _Shell:

@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from litl.backend import warn_if_slow_gpu_scatter
 from litl.sim.config import SimConfig
 from litl.sim.fields import GridField
 from litl.sim.fields import grid_velocity as velocity_field
@@ -168,6 +169,7 @@ def make_rollout(
         or not memory_budget > 0
     ):
         raise ValueError(f"memory_budget must be a positive number of bytes or None, got {memory_budget!r}")
+    warn_if_slow_gpu_scatter()
     step_fn = make_component_step(config, body, stress)
 
     def plan(carry, step_outputs, reads_field: bool) -> CheckpointPlan:

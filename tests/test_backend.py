@@ -1,0 +1,110 @@
+"""The determinism switch (`LITL_DETERMINISM`), its XLA flag, and what a run directory records."""
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+import litl
+from litl import backend
+from litl.backend import DeterminismError, configure, requested_mode
+from litl.loop.run import run
+from tests.loop.tiny import tiny_config, tiny_robot
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+FLAG = "--xla_gpu_deterministic_ops"
+
+
+@pytest.mark.parametrize(
+    ("environ", "expected"),
+    [
+        ({}, ("on", "default")),
+        ({"LITL_DETERMINISM": "on"}, ("on", "LITL_DETERMINISM")),
+        ({"LITL_DETERMINISM": " OFF "}, ("off", "LITL_DETERMINISM")),
+        ({"XLA_FLAGS": f"--xla_cpu_x=1 {FLAG}=false"}, ("off", "XLA_FLAGS")),
+        ({"XLA_FLAGS": f"{FLAG}=true"}, ("on", "XLA_FLAGS")),
+        ({"XLA_FLAGS": f"{FLAG}=false {FLAG}=true"}, ("on", "XLA_FLAGS")),  # XLA keeps the last
+        ({"LITL_DETERMINISM": "off", "XLA_FLAGS": f"{FLAG}=false"}, ("off", "LITL_DETERMINISM")),
+    ],
+)
+def test_the_mode_comes_from_the_switch_or_the_users_xla_flag(environ, expected):
+    assert requested_mode(environ) == expected
+
+
+def test_an_unknown_mode_is_an_error_naming_the_allowed_values():
+    with pytest.raises(DeterminismError, match=r"'maybe'.*LITL_DETERMINISM=on.*LITL_DETERMINISM=off"):
+        requested_mode({"LITL_DETERMINISM": "maybe"})
+    with pytest.raises(DeterminismError, match="expects true or false"):
+        requested_mode({"XLA_FLAGS": f"{FLAG}=perhaps"})
+
+
+@pytest.mark.parametrize(("switch", "flag"), [("on", "false"), ("off", "true")])
+def test_a_contradiction_with_the_users_xla_flags_is_reported_not_resolved(switch, flag):
+    environ = {"LITL_DETERMINISM": switch, "XLA_FLAGS": f"{FLAG}={flag}"}
+    with pytest.raises(DeterminismError, match="contradicts XLA_FLAGS"):
+        configure(environ)
+    assert environ["XLA_FLAGS"] == f"{FLAG}={flag}"  # untouched
+
+
+def test_configure_adds_the_flag_to_the_users_flags_and_never_removes_one():
+    environ = {"XLA_FLAGS": "--xla_backend_optimization_level=0 --xla_dump_to=/tmp/x"}
+    assert configure(environ) == "on"
+    assert environ["XLA_FLAGS"] == f"--xla_backend_optimization_level=0 --xla_dump_to=/tmp/x {FLAG}=true"
+    configure(environ)  # a second import (a subprocess inheriting the environment) adds nothing
+    assert environ["XLA_FLAGS"].count(FLAG) == 1
+    environ = {"LITL_DETERMINISM": "off", "XLA_FLAGS": "--xla_dump_to=/tmp/x"}
+    assert configure(environ) == "off"
+    assert environ["XLA_FLAGS"] == "--xla_dump_to=/tmp/x"
+    environ = {}
+    configure(environ)
+    assert environ["XLA_FLAGS"] == f"{FLAG}=true"
+
+
+def test_import_litl_asks_for_determinism_before_jax_starts():
+    # This process imported litl (conftest's flags kept): XLA saw the flag when JAX started.
+    assert f"{FLAG}=true" in os.environ["XLA_FLAGS"]
+    assert "--xla_backend_optimization_level=0" in os.environ["XLA_FLAGS"]
+    assert litl.backend.mode() == "on"
+
+
+def test_a_bad_switch_stops_the_command_line_with_one_line_and_writes_nothing(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-m", "litl", "+scale=smoke"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "LITL_DETERMINISM": "yes please"},
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        "litl: error: LITL_DETERMINISM='yes please' is not a mode litl knows: use LITL_DETERMINISM=on "
+        "(deterministic GPU computations, the default) or LITL_DETERMINISM=off (XLA's faster, "
+        "run-to-run varying ones)."
+    ]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so(
+    tmp_path, monkeypatch, capfd
+):
+    config = tiny_config(loop={"episodes": 2}, seeds=1, observer={"kind": "kmeans"})
+    run(tiny_robot(), config, tmp_path, progress=False, stop_after_episodes=1)
+    recorded = json.loads((tmp_path / "run.json").read_text())["backend"]
+    assert recorded["determinism"] == "on"
+    assert recorded["platform"] == backend.record()["platform"]
+    assert FLAG in recorded["xla_flags"]
+
+    capfd.readouterr()
+    monkeypatch.setenv("LITL_DETERMINISM", "off")
+    monkeypatch.setenv("XLA_FLAGS", "")
+    run(tiny_robot(), config, tmp_path, progress=False)
+    err = capfd.readouterr().err
+    assert "was started with determinism on and is resumed with determinism off" in err
+    assert "LITL_DETERMINISM=on to resume" in err
+    settings = json.loads((tmp_path / "run.json").read_text())
+    assert settings["backend"]["determinism"] == "on"  # what it started with stays
+    assert [r["determinism"] for r in settings["resumed_on"]] == ["off"]
