@@ -123,7 +123,7 @@ def main():
     labels = [str(r) for r in args.runs] if args.runs else args.observers
     rows = [
         {"state": label, **row}
-        for label, (robot, config, state) in zip(labels, trained)
+        for label, (robot, config, state) in zip(labels, trained, strict=True)
         for row in measure(robot, config, state, args.horizons)
     ]
     if args.json:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import itertools
 import json
 import pathlib
 import statistics
@@ -61,7 +62,7 @@ def summarize(run_dir: pathlib.Path) -> list[dict]:
         skipped = collections.Counter(r["skipped"] for r in seed_records if r.get("skipped"))
         healthy = [r for r in seed_records if not r.get("skipped")]
         distance = [r["task/distance"] for r in healthy]
-        drops = sum(b < a - 0.01 for a, b in zip(distance, distance[1:]))
+        drops = sum(b < a - 0.01 for a, b in itertools.pairwise(distance))
         grads = [r["controller_grad_norm"] for r in healthy if r["controller_grad_norm"] is not None]
         rows.append(
             {

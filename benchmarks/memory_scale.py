@@ -468,7 +468,7 @@ def curves(args) -> None:
             rows.append(row)
             _write_curves(out, header, rows)
             runs = f"{row['forward_runs']}/{row['forward_backward_runs']}" if "forward_runs" in row else "-"
-            rate = lambda key: None if row.get(key) is None else row[key] / 1e6
+            rate = lambda key, row=row: None if row.get(key) is None else row[key] / 1e6
             print(
                 f"{row['particles']:9d} {horizon:5d} {str(every or '-'):>4s} "
                 f"{show(row.get('peak_mb'), '8.0f')} {show(row.get('xla_temp_mb'), '8.0f')} "

@@ -218,7 +218,7 @@ def scatter_one_hot_separable(st, values, grid_shape):
         for a, n in enumerate(grid_shape)
     ]
     stencil_axes, grid_axes = "abc"[:dim], "ijk"[:dim]
-    spec = ",".join(f"p{s}{g}" for s, g in zip(stencil_axes, grid_axes))
+    spec = ",".join(f"p{s}{g}" for s, g in zip(stencil_axes, grid_axes, strict=True))
     spec += f",p{stencil_axes}z->{grid_axes}z"
     return jnp.einsum(spec, *hots, values, optimize="optimal", precision=jax.lax.Precision.HIGHEST)
 
@@ -366,7 +366,7 @@ def measure(name: str, variants, repeats: int, one_hot_max_nodes: int) -> dict:
             reference = (grid, grads)
         elif variant != "no_scatter":  # every variant must compute the same transfer
             _close(grid, reference[0], f"{name}: {variant}'s grid")
-            for got, want, what in zip(grads, reference[1], ("positions", "velocities")):
+            for got, want, what in zip(grads, reference[1], ("positions", "velocities"), strict=True):
                 _close(got, want, f"{name}: {variant}'s gradient for the {what}")
         jax.block_until_ready((fwd(*args), fwd_bwd(*args)))  # warm-up
         compiled[variant] = (fwd, fwd_bwd)
@@ -378,7 +378,7 @@ def measure(name: str, variants, repeats: int, one_hot_max_nodes: int) -> dict:
     times = {variant: ([], []) for variant in variants}
     for _ in range(repeats):
         for variant in variants:  # in turn, so that a slow spell of the machine hits all alike
-            for program, store in zip(compiled[variant], times[variant]):
+            for program, store in zip(compiled[variant], times[variant], strict=True):
                 start = time.perf_counter()
                 jax.block_until_ready(program(*args))
                 store.append((time.perf_counter() - start) / loops_of[variant])

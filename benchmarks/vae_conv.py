@@ -7,8 +7,8 @@
 For each window size and implementation ("xla", "matmul"), three programs of the default VAE
 (channels 8-16-32-32-64, latent 8, kernel 3, float32):
 
-  train_step   `jax.value_and_grad` of `vae.losses` (litl's, momentum head 0.3) on a batch of 8 (loop.learning.batch_size):
-               one SGD step of a learning phase, without the optimizer update
+  train_step   `jax.value_and_grad` of `vae.losses` (litl's, momentum head 0.3) on a batch of 8
+               (loop.learning.batch_size): one SGD step of a learning phase, without the optimizer update
   encode       the encoder on one field (what a rollout step's controller reads)
   encode_grad  its gradient with respect to the field (`controller.feature_gradient=full`)
 
@@ -98,7 +98,7 @@ def measure(size: str, repeats: int, seeds: int = 1) -> dict:
                 "compile_s": compile_s,
                 "temp_mb": analysis.temp_size_in_bytes / 2**20 if analysis else None,
             }
-        for a, b in zip(*(jax.tree_util.tree_leaves(outputs[i]) for i in IMPLEMENTATIONS)):
+        for a, b in zip(*(jax.tree_util.tree_leaves(outputs[i]) for i in IMPLEMENTATIONS), strict=True):
             scale = float(np.max(np.abs(a))) or 1.0
             np.testing.assert_allclose(
                 np.asarray(b) / scale, np.asarray(a) / scale, rtol=1e-4, atol=1e-5, err_msg=f"{size} {name}"

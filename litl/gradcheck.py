@@ -10,11 +10,11 @@ robot's task) is differentiated with respect to the controller's parameters θ, 
 parameters, and the initial particle velocities and positions. For each, along a few random
 unit directions u, the directional derivative <jax.grad, u> is compared with the central
 difference (L(x + εu) - L(x - εu)) / 2ε at several steps ε (the best agreeing one is reported);
-the relative error is |analytic - numeric| / max(|analytic|, |numeric|). The check passes when every error is at most `rtol`. Any other
-setting is a Hydra override as for `python -m litl`, except two: the check runs in float64, and
-with `controller.mlp.feature_gradient=full` (the true gradient; `stop`, litl's default, leaves
-out the path through the observer's features on purpose). The observer is used as initialised;
-the gradient does not flow into its parameters.
+the relative error is |analytic - numeric| / max(|analytic|, |numeric|). The check passes when
+every error is at most `rtol`. Any other setting is a Hydra override as for `python -m litl`,
+except two: the check runs in float64, and with `controller.mlp.feature_gradient=full` (the true
+gradient; `stop`, litl's default, leaves out the path through the observer's features on
+purpose). The observer is used as initialised; the gradient does not flow into its parameters.
 """
 
 from __future__ import annotations
@@ -150,14 +150,13 @@ def check_gradients(
                 )
                 analytic = sum(
                     float(jnp.vdot(g, v))
-                    for g, v in zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u))
+                    for g, v in zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u), strict=True)
                 )
-                shifted = lambda step: {
-                    **x,
-                    group: jax.tree.map(  # noqa: E731
-                        lambda a, v: a + step * v, x[group], u
-                    ),
-                }
+
+                def shifted(step, group=group, u=u):
+                    """x moved by `step` along u in `group` (the iteration's own, bound here)."""
+                    return {**x, group: jax.tree.map(lambda a, w: a + step * w, x[group], u)}
+
                 numeric = {e: (float(f(shifted(e))) - float(f(shifted(-e)))) / (2 * e) for e in eps}
                 best = min(eps, key=lambda e: relative_error(analytic, numeric[e]))
                 checks.append(Check(group, d, analytic, numeric[best], best))

@@ -175,7 +175,8 @@ def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
     assert main(argv) == 0
     for name in ("claims.md", "claims.csv", "table1.md", "fig4b.png", "timings.json"):
         assert (out / name).stat().st_size > 0, name
-    rows = list(csv.DictReader(open(out / "claims.csv")))
+    with open(out / "claims.csv") as file:
+        rows = list(csv.DictReader(file))
     assert [r["claim"] for r in rows] == [c.id for c in CLAIMS if c.panel == "fig4b"]
     assert all(r["method"] == "paper" and r["verdict"] for r in rows)
     assert all(int(r["a_n"]) == 2 for r in rows)
@@ -189,5 +190,6 @@ def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
     assert main(argv) == 0
     assert "litl.claims: [" not in capsys.readouterr().out
     assert (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text() == metrics
-    assert list(csv.DictReader(open(out / "claims.csv"))) == rows
+    with open(out / "claims.csv") as file:
+        assert list(csv.DictReader(file)) == rows
     assert "Table 1" in (out / "table1.md").read_text()

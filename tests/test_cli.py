@@ -124,11 +124,9 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     )
     assert replay.returncode == 0, replay.stderr[-3000:]
     summary = json.loads((run_dir / "replay" / "seed1.json").read_text())
-    assert (
-        summary["task_loss"]
-        == summary["recorded_loss"]
-        == json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
-    )
+    assert summary["recorded_loss"] == json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
+    # The replay is another program than the run's (one seed, not vmapped): to float32 rounding.
+    assert summary["task_loss"] == pytest.approx(summary["recorded_loss"], rel=1e-5, abs=1e-8)
     assert (run_dir / "replay" / "seed1.gif").stat().st_size > 1000
 
 
@@ -370,7 +368,7 @@ def test_robots_of_every_kind_run_at_smoke_scale_in_one_sweep(tmp_path):
     dirs = run_dirs(tmp_path / "multirun")
     runs = [json.loads((d / "run.json").read_text()) for d in dirs]
     assert sorted(r["robot"] for r in runs) == sorted(names)
-    for d, r in zip(dirs, runs):
+    for d, r in zip(dirs, runs, strict=True):
         assert len((d / "metrics.jsonl").read_text().splitlines()) == 1, d
         assert r["dx"] == (1 / 32 if len(r["grid_shape"]) == 2 else 1 / 16), r["robot"]
 

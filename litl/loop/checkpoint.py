@@ -2,9 +2,9 @@
 
 A checkpoint holds the batched `LoopState` (parameters, optimizer states, replay buffer, PRNG key,
 latest learning statistics) and `counters`: numpy arrays of the run's shell, e.g. the number of
-episodes finished and of metrics lines written by then. A process killed mid-save leaves a temporary directory that orbax ignores; a complete checkpoint
-damaged later (a truncated file, lost metadata) is skipped on restore in favour of the previous one
-(two are kept).
+episodes finished and of metrics lines written by then. A process killed mid-save leaves a
+temporary directory that orbax ignores; a complete checkpoint damaged later (a truncated file,
+lost metadata) is skipped on restore in favour of the previous one (two are kept).
 """
 
 from __future__ import annotations

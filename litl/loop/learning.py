@@ -10,8 +10,9 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
   on the buffer's capacity or its invalid slots (up to float rounding of the scale's sum).
 * Epochs: each epoch shuffles the training half again and walks it in minibatches of b drawn
   without replacement; only the minibatches that hold real entries run, so an epoch's cost
-  follows the number of snapshots in the buffer, not its capacity. A last partial minibatch is used, its loss averaged over its real entries
-  only (a mask, not drop-partial: early in a run the buffer may hold fewer than b entries).
+  follows the number of snapshots in the buffer, not its capacity. A last partial minibatch is
+  used, its loss averaged over its real entries only (a mask, not drop-partial: early in a run
+  the buffer may hold fewer than b entries).
   Minibatch slots past the end of the training half are padding: their inputs are zeroed, their
   losses masked out, and a minibatch with no real entry does not step the optimizer.
 * Early stopping (`patience` in epochs, or `patience_steps` in SGD steps, and an optional

@@ -64,7 +64,8 @@ def iteration_scalars(record: dict) -> dict:
 def phase_scalars(record: dict) -> dict:
     """{tag: value} of one learning.jsonl record's statistics (finite numbers only)."""
     scalars = {f"learning/{key}": record.get(key) for key in PHASE_KEYS}
-    for axis, value in zip(AXES, record.get("velocity_r2") or ()):
+    # strict=False: "xyz" names up to three axes, a 2D run records two.
+    for axis, value in zip(AXES, record.get("velocity_r2") or (), strict=False):
         scalars[f"learning/velocity_r2_{axis}"] = value
     return {tag: float(value) for tag, value in scalars.items() if _number(value)}
 

@@ -56,7 +56,7 @@ def strided_conv(x, kernel):
     out = [-(-n // STRIDE) for n in spatial]
     taps = []
     for offsets in itertools.product(range(k), repeat=len(spatial)):
-        window = tuple(slice(t, t + STRIDE * (m - 1) + 1, STRIDE) for t, m in zip(offsets, out))
+        window = tuple(slice(t, t + STRIDE * (m - 1) + 1, STRIDE) for t, m in zip(offsets, out, strict=True))
         taps.append(padded[(slice(None),) + window])
     return jnp.concatenate(taps, axis=-1) @ kernel.reshape(-1, kernel.shape[-1])
 
@@ -64,7 +64,7 @@ def strided_conv(x, kernel):
 def _shift(x, offsets):
     """y[m] = x[m + s] along each spatial axis (zero where m + s falls outside)."""
     config, window = [(0, 0, 0)], [slice(None)]
-    for s, n in zip(offsets, x.shape[1:-1]):
+    for s, n in zip(offsets, x.shape[1:-1], strict=True):
         config.append((max(-s, 0), max(s, 0), 0))
         window.append(slice(max(s, 0), max(s, 0) + n))
     config.append((0, 0, 0))
@@ -86,7 +86,7 @@ def strided_conv_transpose(x, kernel):
     for phase in itertools.product(range(STRIDE), repeat=d):
         inputs, weights = [], []
         for taps in itertools.product(range(k), repeat=d):
-            steps = [p + t - lead for p, t in zip(phase, taps)]
+            steps = [p + t - lead for p, t in zip(phase, taps, strict=True)]
             if all(s % STRIDE == 0 for s in steps):
                 inputs.append(_shift(x, [s // STRIDE for s in steps]))
                 weights.append(kernel[taps])

@@ -49,7 +49,7 @@ def pad_field(field, grid_shape):
     """(..., *grid_shape, d) -> (..., *padded_shape, d), zeros at the high ends."""
     target = padded_shape(grid_shape)
     lead = field.ndim - len(grid_shape) - 1
-    pads = [(0, 0)] * lead + [(0, t - n) for n, t in zip(grid_shape, target)] + [(0, 0)]
+    pads = [(0, 0)] * lead + [(0, t - n) for n, t in zip(grid_shape, target, strict=True)] + [(0, 0)]
     return jnp.pad(field, pads)
 
 

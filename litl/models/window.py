@@ -46,7 +46,7 @@ class Window:
         object.__setattr__(self, "grid_shape", tuple(int(n) for n in self.grid_shape))
         object.__setattr__(self, "shape", tuple(int(n) for n in self.shape))
         if len(self.shape) != len(self.grid_shape) or any(
-            not 0 < w <= n for w, n in zip(self.shape, self.grid_shape)
+            not 0 < w <= n for w, n in zip(self.shape, self.grid_shape, strict=True)
         ):
             raise ValueError(
                 f"window shape {self.shape} must have one size in [1, n] per grid axis of {self.grid_shape}"

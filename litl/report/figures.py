@@ -56,7 +56,8 @@ def plot_panels(
     rows = math.ceil(len(panels) / cols)
     figure = Figure(figsize=(5.2 * cols, 3.8 * rows), layout="constrained")
     axes = figure.subplots(rows, cols, squeeze=False).ravel()
-    for ax, (title, lines) in zip(axes, panels):
+    # strict=False: the grid may have more cells than panels (the last row's are left empty).
+    for ax, (title, lines) in zip(axes, panels, strict=False):
         for curve, style, text in lines:
             color = colors.get(curve.label, PALETTE[0])
             # A single iteration would draw no line; a marker keeps it visible.

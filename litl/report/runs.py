@@ -348,12 +348,12 @@ def labels(runs: list[Run]) -> list[str]:
         for key in keys:
             values = {
                 json.dumps(s.get(key), sort_keys=True)
-                for s, i in zip(settings, indices)
+                for s, i in zip(settings, indices, strict=True)
                 if _relevant(key, runs[i])
             }
             if len(values) > 1:
                 varying.append(key)
-        for s, i in zip(settings, indices):
+        for s, i in zip(settings, indices, strict=True):
             run = runs[i]
             # Where runs differ in their method, a key at its method's value is the method's.
             start = method_defaults(s["method"]) if "method" in varying else {}
@@ -398,7 +398,7 @@ class Group:
 def group_runs(runs: list[Run]) -> list[Group]:
     """Pool runs by (robot, label), ordered by robot, then observer (vae, ae, kmeans), label."""
     pooled: dict[tuple[str, str], list[Run]] = {}
-    for run, label in zip(runs, labels(runs)):
+    for run, label in zip(runs, labels(runs), strict=True):
         pooled.setdefault((run.robot, label), []).append(run)
 
     def order(key):

@@ -191,8 +191,9 @@ def elephant(dx: float) -> Robot:
         description=(
             "2D 'elephant' (Fig. 4c): torso 0.26 x 0.12 on two legs (two actuators each), an "
             "elliptic head and a 0.03-wide trunk of three actuated segments (7 actuators, 4 "
-            "regions: torso back, torso front with head and trunk, legs). Task: walk right (weight 1) while the trunk tip ('trunk_tip') reaches a "
-            "point 0.25 right of and 0.12 above its start (squared distance, weight 10)."
+            "regions: torso back, torso front with head and trunk, legs). Task: walk right (weight 1) "
+            "while the trunk tip ('trunk_tip') reaches a point 0.25 right of and 0.12 above its start "
+            "(squared distance, weight 10)."
         ),
     )
 
@@ -224,8 +225,9 @@ def bunny(dx: float) -> Robot:
         description=(
             "2D 'bunny' (Fig. 4d): torso 0.22 x 0.1 on two legs (two actuators each), round head "
             "with two ears, two forward arms 0.08 x 0.025 with a horizontal actuator each (6 "
-            "actuators, 5 regions: torso back/front with head, legs, arms). Task: walk forward (weight 1) while the two hands ('left_hand', "
-            "'right_hand') reach points 0.2 ahead and 0.15 / 0.05 higher (weight 5 each)."
+            "actuators, 5 regions: torso back/front with head, legs, arms). Task: walk forward "
+            "(weight 1) while the two hands ('left_hand', 'right_hand') reach points 0.2 ahead and "
+            "0.15 / 0.05 higher (weight 5 each)."
         ),
     )
 

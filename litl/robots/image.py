@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 from collections.abc import Mapping
 
 import numpy as np
@@ -63,7 +64,7 @@ def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
     elif not isinstance(legend, Mapping):
         try:
             legend = json.loads(
-                open(legend).read() if not hasattr(legend, "read_text") else legend.read_text()
+                legend.read_text() if hasattr(legend, "read_text") else pathlib.Path(legend).read_text()
             )
         except (OSError, json.JSONDecodeError) as error:
             raise LayoutError(f"cannot read legend {legend}: {error}") from None
@@ -120,7 +121,7 @@ def layout_from_pixels(
     unknown = ~empty & ~known
     if unknown.any():
         r, c = np.argwhere(unknown)[0]
-        found = sorted({"#%02x%02x%02x" % tuple(p) for p in rgb[unknown]})
+        found = sorted({"#{:02x}{:02x}{:02x}".format(*p) for p in rgb[unknown]})
         raise LayoutError(
             f"{source}: {int(unknown.sum())} pixels have colours not in the legend, e.g. "
             f"{found[:5]} (first at row {r + rows.min()}, column {c + cols.min()}). Add them to the "
@@ -143,7 +144,7 @@ def layout_from_pixels(
         mask = inside & ~empty[row, column] & np.all(sampled == colour, axis=-1)
         if not mask.any():
             continue
-        name = "#%02x%02x%02x" % colour
+        name = "#{:02x}{:02x}{:02x}".format(*colour)
         actuator, region = role.get("actuator"), role.get("region", 0)
         fiber = role.get("fiber", (0.0, 1.0) if actuator is not None else None)
         try:

@@ -34,5 +34,5 @@ def sample_box(lower, size, dx, per_cell=2) -> np.ndarray:
         raise ValueError(
             f"box of size {size.tolist()} is thinner than one grid cell (dx={dx}); make it larger"
         )
-    axes = [lo + (np.arange(n) + 0.5) * length / n for lo, length, n in zip(lower, size, counts)]
+    axes = [lo + (np.arange(n) + 0.5) * length / n for lo, length, n in zip(lower, size, counts, strict=True)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, lower.size)

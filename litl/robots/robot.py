@@ -18,6 +18,7 @@ from litl.robots.tasks import Task, make_task_loss
 from litl.sim import (
     Body,
     ConfigError,
+    Design,
     SimConfig,
     SimState,
     check_actuation,

@@ -267,7 +267,7 @@ def lattice(lower, upper, spacing) -> np.ndarray:
     """(k, d) points ``(i + 1/2) * spacing`` of the global lattice inside the box [lower, upper]."""
     start = np.floor(np.asarray(lower) / spacing).astype(np.int64)
     stop = np.ceil(np.asarray(upper) / spacing).astype(np.int64)
-    axes = [(np.arange(a, b) + 0.5) * spacing for a, b in zip(start, stop)]
+    axes = [(np.arange(a, b) + 0.5) * spacing for a, b in zip(start, stop, strict=True)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
 
 
@@ -291,7 +291,7 @@ def sample_parts(parts: Sequence[Part], dx: float, per_cell: int = 2) -> Layout:
     if not (dx > 0 and isinstance(per_cell, (int, np.integer)) and per_cell >= 1):
         raise LayoutError(f"need dx > 0 and an integer per_cell >= 1, got dx={dx!r}, per_cell={per_cell!r}")
     spacing = dx / per_cell
-    lowers, uppers = zip(*(part.shape.bounds() for part in parts))
+    lowers, uppers = zip(*(part.shape.bounds() for part in parts), strict=True)
     points = lattice(np.min(lowers, axis=0), np.max(uppers, axis=0), spacing)
     labels = LabelMerger(len(points))
     for index, part in enumerate(parts):

@@ -25,7 +25,7 @@ def pinned_node_mask(config: SimConfig) -> np.ndarray:
     coords = np.meshgrid(*[np.arange(n) * config.dx for n in config.grid_shape], indexing="ij")
     for lo, hi in config.boundary.pinned_boxes:
         inside = np.ones(config.grid_shape, bool)
-        for c, a, b in zip(coords, lo, hi):
+        for c, a, b in zip(coords, lo, hi, strict=True):
             inside &= (c >= a) & (c <= b)
         mask |= inside
     return mask
@@ -52,7 +52,7 @@ def apply_boundary(config: SimConfig, velocity):
     """
     boundary: Boundary = config.boundary
     velocity = list(velocity)
-    for face, (wall, layer) in enumerate(zip(boundary.walls, _face_masks(config))):
+    for face, (wall, layer) in enumerate(zip(boundary.walls, _face_masks(config), strict=True)):
         if wall.kind == "open":
             continue
         axis, high = divmod(face, 2)

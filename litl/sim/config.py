@@ -177,7 +177,7 @@ class SimConfig:
                 f"wall thickness {self.boundary.thickness} leaves no room in grid {self.grid_shape}"
             )
         for lo, hi in self.boundary.pinned_boxes:
-            if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi)):
+            if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi, strict=True)):
                 raise ConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
 
     @property

@@ -102,11 +102,11 @@ def identity(d, like) -> Mat:
 
 
 def add(a: Mat, b: Mat) -> Mat:
-    return [[x + y for x, y in zip(ra, rb)] for ra, rb in zip(a, b)]
+    return [[x + y for x, y in zip(ra, rb, strict=True)] for ra, rb in zip(a, b, strict=True)]
 
 
 def sub(a: Mat, b: Mat) -> Mat:
-    return [[x - y for x, y in zip(ra, rb)] for ra, rb in zip(a, b)]
+    return [[x - y for x, y in zip(ra, rb, strict=True)] for ra, rb in zip(a, b, strict=True)]
 
 
 def scale(a: Mat, s) -> Mat:
@@ -129,7 +129,7 @@ def matvec(a: Mat, v: Vec) -> Vec:
 
 
 def transpose(a: Mat) -> Mat:
-    return [list(col) for col in zip(*a)]
+    return [list(col) for col in zip(*a, strict=True)]
 
 
 def outer(u: Vec, v: Vec) -> Mat:

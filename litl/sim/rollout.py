@@ -52,7 +52,7 @@ class Health:
         total = sum([*state.x, *state.v, *(f for row in state.F for f in row)])
         finite = jnp.all(jnp.isfinite(total))
         inside = True
-        for x, n in zip(state.x, config.grid_shape):
+        for x, n in zip(state.x, config.grid_shape, strict=True):
             # The next step's stencil starts at floor(x / dx - 0.5) and must lie in [0, n - 3].
             cells = x / config.dx - 0.5
             inside = inside & (cells >= 0) & (cells < n - 2)

@@ -168,7 +168,7 @@ def raise_if_unhealthy(health, steps: int | None = None) -> None:
     escaped = np.atleast_1d(np.asarray(health.first_escape_step))
     of = f" of {steps}" if steps else ""
     problems = []
-    for index, (bad, out) in enumerate(zip(nonfinite, escaped)):
+    for index, (bad, out) in enumerate(zip(nonfinite, escaped, strict=True)):
         where = f" (batch entry {index})" if nonfinite.size > 1 else ""
         found = []
         if out >= 0:

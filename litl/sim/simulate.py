@@ -23,10 +23,10 @@ def simulate(
 ):
     """Run `steps` steps from `state` and return ``(final_state, trajectory)``.
 
-    Checks shapes, material values, particle placement, the time step and the actuators' strength before running, and
-    raises `litl.sim.safety.SimulationError` if the rollout produced NaNs or lost particles.
-    Compiles on every call: for repeated runs (optimization), jit `make_rollout(...)` once and call
-    `raise_if_unhealthy(trajectory.health)` on its results.
+    Checks shapes, material values, particle placement, the time step and the actuators' strength
+    before running, and raises `litl.sim.safety.SimulationError` if the rollout produced NaNs or
+    lost particles. Compiles on every call: for repeated runs (optimization), jit
+    `make_rollout(...)` once and call `raise_if_unhealthy(trajectory.health)` on its results.
     """
     validate(config, body, design, state)
     check_time_step(config, body, design)

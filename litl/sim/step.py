@@ -52,7 +52,7 @@ def _grid_update(config: SimConfig, grid, particle_mass):
     occupied = mass > 0
     velocity = [
         v + jnp.where(occupied, jnp.asarray(config.dt * g, dtype), 0) if g else v
-        for v, g in zip(velocity, config.gravity)
+        for v, g in zip(velocity, config.gravity, strict=True)
     ]
     return apply_boundary(config, velocity), mass
 
@@ -160,7 +160,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         free = ~body.pinned
         v = [jnp.where(free, c, 0.0) for c in v]
         C = [[jnp.where(free, c, 0.0) for c in row] for row in C]
-        x = [x + dt * c for x, c in zip(state.x, v)]
+        x = [x + dt * c for x, c in zip(state.x, v, strict=True)]
         next_state = Components(x=x, v=v, C=C, F=F, step=state.step + 1)
         return next_state, Grid(velocity=velocity, mass=grid_mass)
 

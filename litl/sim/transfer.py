@@ -41,7 +41,7 @@ class Stencil:
 
     def nodes(self):
         """(offset tuple, weight (n,)) for the 3^d stencil nodes in window (C) order."""
-        return zip(itertools.product(range(3), repeat=self.dim), self.node_weights)
+        return zip(itertools.product(range(3), repeat=self.dim), self.node_weights, strict=True)
 
 
 def stencil(x, dx, grid_shape, token=None) -> Stencil:
@@ -51,7 +51,7 @@ def stencil(x, dx, grid_shape, token=None) -> Stencil:
     so are their cotangents in reverse mode, which every position component's cotangent reads.
     """
     bases, fx, inside = [], [], True
-    for xa, n in zip(x, grid_shape):
+    for xa, n in zip(x, grid_shape, strict=True):
         cells = xa / dx - 0.5
         base = jnp.floor(cells)
         inside = inside & (base >= 0) & (base <= n - 3)
@@ -220,7 +220,7 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token
     # x_i - x_p = (offset - fx) dx, so A (x_i - x_p) = dx A offset - dx A fx: the second part is
     # the same for all nodes and folds into the momentum once per particle.
     affine_fx = linalg.matvec(affine, st.fx)
-    shifted = [p - dx * a for p, a in zip(momentum, affine_fx)]
+    shifted = [p - dx * a for p, a in zip(momentum, affine_fx, strict=True)]
     if token is not None:  # its cotangent is read by every position component's cotangent
         shifted = linalg.materialize(shifted, token)
     columns = [[dx * affine[c][k] for k in range(dim)] for c in range(dim)]

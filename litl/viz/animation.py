@@ -155,11 +155,11 @@ def animate_rollout(
         colors = fixed if fixed is not None else particle_colors(layout, actuation[frame])
         if layout.dim == 3:
             particles._offsets3d = tuple(to_plot_3d(x).T)
-            for cross, group in zip(crosses, groups):
+            for cross, group in zip(crosses, groups, strict=True):
                 cross._offsets3d = tuple(to_plot_3d(x[group].mean(axis=0))[:, None])
         else:
             particles.set_offsets(x)
-            for cross, group in zip(crosses, groups):
+            for cross, group in zip(crosses, groups, strict=True):
                 cross.set_data(*x[group].mean(axis=0)[:, None])
         particles.set_facecolor(colors)
         title.set_text(f"{name}: frame {frame + 1} / {len(positions)}")

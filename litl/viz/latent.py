@@ -154,8 +154,9 @@ def draw_snapshots(
     mid-depth slice for 3D), in the middle the latent code (encoder means, the controller's input)
     as bars, below the reconstruction D(mean) in the same units and on the same colour range as
     the input. The range is the 98th percentile of the inputs' nonzero |v| (`FIELD_PERCENTILE`):
-    the few fastest nodes saturate rather than wash the rest of the field out. Fields are divided by ``observer_params.scale`` before encoding and the
-    reconstruction multiplied back, as the observer does. One colour range, symmetric about zero,
+    the few fastest nodes saturate rather than wash the rest of the field out. Fields are divided
+    by ``observer_params.scale`` before encoding and the reconstruction multiplied back, as the
+    observer does. One colour range, symmetric about zero,
     serves every field panel so that snapshots compare; one bar range serves every code.
 
     Args:
@@ -193,7 +194,7 @@ def draw_snapshots(
         bottom = [fig.add_subplot(grid[2, c]) for c in columns]
         _draw_components(top, fields[t], norm, "velocity")
         _draw_components(bottom, reconstructions[t], norm, "reconstruction")
-        for ax, label in zip(top, COMPONENTS):
+        for ax, label in zip(top, COMPONENTS, strict=False):  # "xyz": the first d
             ax.set_title(f"{t + 1}: v{label}", fontsize=8)
         code = fig.add_subplot(grid[1, t * d : (t + 1) * d])
         code.bar(np.arange(model.latent_dim), means[t], color=bar_colors[t])
@@ -222,7 +223,7 @@ def draw_snapshots(
 
 
 def draw_latent_sweeps(
-    model: ConvAutoencoder, observer_params: AutoencoderParams, values=np.linspace(-1.0, 1.0, 5), path=None
+    model: ConvAutoencoder, observer_params: AutoencoderParams, values=(-1.0, -0.5, 0.0, 0.5, 1.0), path=None
 ) -> Figure:
     """Decoded one-hot latent vectors, each latent swept over `values` (paper Fig. 8).
 
@@ -265,7 +266,7 @@ def draw_latent_sweeps(
             axes = [fig.add_subplot(grid[i, j * d + c]) for c in range(d)]
             _draw_components(axes, decoded[i, j], norm, "sweep")
             if i == 0:
-                for ax, label in zip(axes, COMPONENTS):
+                for ax, label in zip(axes, COMPONENTS, strict=False):  # "xyz": the first d
                     ax.set_title(f"{values[j]:+.2g}: v{label}", fontsize=8)
             row += axes
         row[0].set_ylabel(f"z{i}", fontsize=8)

@@ -223,7 +223,7 @@ def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
     points = np.concatenate([positions, *[t[None] for t in targets.values()]])
     low, high = points.min(axis=0), points.max(axis=0)
     margin = 0.1 * np.max(high - low) + particle_side(layout)
-    return list(zip(low - margin, high + margin))
+    return list(zip(low - margin, high + margin, strict=True))
 
 
 def draw_robot(

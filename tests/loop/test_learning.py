@@ -1,5 +1,6 @@
 """Learning phase of the observer copy and the target update."""
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -124,8 +125,10 @@ def test_only_valid_entries_are_used(learn, params):
     key = jax.random.key(4)
     expected_params, expected_stats = learn(params, clean, key)
     got_params, got_stats = learn(params, garbage, key)
-    assert_trees_equal(got_params, expected_params)
-    assert_trees_equal(got_stats, expected_stats)
+    # Another input array, so another reduction order is allowed: equal to float32 rounding
+    # (garbage that leaked in would be off by orders of magnitude, or NaN).
+    chex.assert_trees_all_close(got_params, expected_params, rtol=1e-5, atol=1e-6)
+    chex.assert_trees_all_close(got_stats, expected_stats, rtol=1e-5, atol=1e-6)
 
 
 def test_masked_scale_fit_ignores_masked_entries(params):
@@ -136,7 +139,7 @@ def test_masked_scale_fit_ignores_masked_entries(params):
     np.testing.assert_allclose(masked.scale, vae.fit_scale(params, fields[:4]).scale, rtol=1e-6)
 
 
-def test_same_key_same_result_and_other_key_differs(learn, params):
+def test_same_key_same_result_and_other_key_differs(learn, params, deterministic):
     buffer = buffer_of(moving_discs(16))
     first = learn(params, buffer, jax.random.key(5))
     assert_trees_equal(first, learn(params, buffer, jax.random.key(5)))
@@ -177,9 +180,9 @@ def test_vmap_over_seeds_equals_separate_runs(two_params, x64):
         expected_params, expected_stats = single(seeds[seed], buffers[seed], keys[seed])
         assert_stopping_rule(expected_stats, config)
         epochs.append(int(expected_stats.epochs_used))
-        for a, b in zip(jax.tree.leaves(batched_params), jax.tree.leaves(expected_params)):
+        for a, b in zip(jax.tree.leaves(batched_params), jax.tree.leaves(expected_params), strict=True):
             np.testing.assert_allclose(a[seed], b, rtol=1e-9, atol=1e-12)
-        for a, b in zip(jax.tree.leaves(batched_stats), jax.tree.leaves(expected_stats)):
+        for a, b in zip(jax.tree.leaves(batched_stats), jax.tree.leaves(expected_stats), strict=True):
             np.testing.assert_allclose(a[seed], b, rtol=1e-9, atol=1e-12)
     # The seeds stop after different numbers of epochs (keys chosen so), so the batched loop has
     # to hold a stopped seed still while the other trains on.
@@ -193,7 +196,7 @@ def test_soft_update(two_params):
     assert_trees_equal(learning.soft_update(target, online, 0.0), target)
     half = jax.jit(learning.soft_update)(target, online, 0.5)
     assert float(half.scale) == 3.0
-    for h, t, o in zip(*(jax.tree.leaves(p) for p in (half, target, online))):
+    for h, t, o in zip(*(jax.tree.leaves(p) for p in (half, target, online)), strict=True):
         np.testing.assert_allclose(h, (t + o) / 2, rtol=1e-6, atol=1e-7)
     with pytest.raises(ValueError, match=r"alpha must be in \[0, 1\]"):
         learning.soft_update(target, online, 1.5)

@@ -64,7 +64,7 @@ def test_replace_with_keeps_only_latest_and_clear_empties():
     assert stored_ids(replay_buffer.replace_with(buffer, snapshots(200, 9))) == set(range(203, 209))
     cleared = replay_buffer.clear(buffer)
     empty = ReplayBuffer.empty(6, GRID, 2)
-    for a, b in zip(jax.tree.leaves(cleared), jax.tree.leaves(empty)):
+    for a, b in zip(jax.tree.leaves(cleared), jax.tree.leaves(empty), strict=True):
         np.testing.assert_array_equal(a, b)
 
 
@@ -74,7 +74,7 @@ def test_vmapped_over_seeds_equals_separate_buffers():
     added = jax.jit(jax.vmap(replay_buffer.add))(buffers, batch)
     for seed in range(2):
         single = replay_buffer.add(ReplayBuffer.empty(3, GRID, 2), batch[seed])
-        for a, b in zip(jax.tree.leaves(added), jax.tree.leaves(single)):
+        for a, b in zip(jax.tree.leaves(added), jax.tree.leaves(single), strict=True):
             np.testing.assert_array_equal(a[seed], b)
 
 

@@ -53,6 +53,7 @@ def vae_run(tmp_path_factory):
     )
 
 
+@pytest.mark.gpu
 def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
     records = read_metrics(vae_run.run_dir)
     assert without_time(records) == without_time(vae_run.metrics)
@@ -86,7 +87,9 @@ def test_vae_run_writes_every_iteration_of_every_seed(vae_run):
 def test_final_parameters_are_saved_and_load(vae_run):
     final = load_final(vae_run.run_dir, tiny_robot(), tiny_config(loop={"episodes": 3}))
     np.testing.assert_array_equal(final["design"], vae_run.state.design)
-    for a, b in zip(jax.tree.leaves(final["controller"]), jax.tree.leaves(vae_run.state.controller)):
+    for a, b in zip(
+        jax.tree.leaves(final["controller"]), jax.tree.leaves(vae_run.state.controller), strict=True
+    ):
         np.testing.assert_array_equal(a, b)
     assert (vae_run.run_dir / "run.json").exists()
 
@@ -95,17 +98,20 @@ def test_best_parameters_are_saved_and_load(vae_run):
     """best.json names each seed's lowest task loss and its step; `which="best"` loads them."""
     best = json.loads((vae_run.run_dir / "best.json").read_text())
     assert [b["seed"] for b in best] == [0, 1]
-    for s, entry in enumerate(best):
+    for entry in best:
         losses = [r["task_loss"] for r in vae_run.metrics if r["seed"] == entry["seed"]]
         assert entry["task_loss"] == min(losses) and entry["step"] == int(np.argmin(losses))
     saved = load_final(vae_run.run_dir, tiny_robot(), tiny_config(loop={"episodes": 3}), which="best")
     np.testing.assert_array_equal(saved["design"], vae_run.state.best.design)
-    for a, b in zip(jax.tree.leaves(saved["controller"]), jax.tree.leaves(vae_run.state.best.controller)):
+    for a, b in zip(
+        jax.tree.leaves(saved["controller"]), jax.tree.leaves(vae_run.state.best.controller), strict=True
+    ):
         np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.slow
-def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
+@pytest.mark.gpu
+def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path, deterministic):
     run_dir = tmp_path / "killed"
     process = subprocess.Popen(
         [sys.executable, "-m", "tests.loop.tiny", str(run_dir), "3"],
@@ -128,9 +134,11 @@ def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path):
 
     resumed = run(tiny_robot(), tiny_config(loop={"episodes": 3}), run_dir, progress=False)
     assert without_time(read_metrics(run_dir)) == without_time(read_metrics(vae_run.run_dir))
-    learning = lambda d: without_time([json.loads(l) for l in (d / "learning.jsonl").open()])
+    learning = lambda d: without_time(
+        [json.loads(line) for line in (d / "learning.jsonl").read_text().splitlines()]
+    )
     assert learning(run_dir) == learning(vae_run.run_dir)
-    for a, b in zip(jax.tree.leaves(resumed.state), jax.tree.leaves(vae_run.state)):
+    for a, b in zip(jax.tree.leaves(resumed.state), jax.tree.leaves(vae_run.state), strict=True):
         np.testing.assert_array_equal(a, b)  # bitwise
 
 
@@ -153,6 +161,7 @@ def test_an_unusable_logger_fails_before_any_directory_is_made(tmp_path, monkeyp
     assert not (tmp_path / "outputs").exists()
 
 
+@pytest.mark.gpu
 def test_kmeans_baseline_runs_without_learning(tmp_path):
     result = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}), tmp_path, progress=False)
     assert len(result.metrics) == 2 * 2 * 2
@@ -162,6 +171,7 @@ def test_kmeans_baseline_runs_without_learning(tmp_path):
     assert result.state.observer.averaging.shape == (2, 3, tiny_robot().layout.n_particles)
 
 
+@pytest.mark.gpu
 def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
     from litl.config import SettingsError
     from litl.report import write_report
@@ -226,6 +236,7 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
     assert algorithm.steps == 20
 
 
+@pytest.mark.gpu
 def test_plain_autoencoder_simultaneous_and_control_only(tmp_path):
     config = tiny_config(observer={"kind": "ae"}, loop={"schedule": "simultaneous", "codesign": False})
     result = run(tiny_robot(), config, tmp_path, progress=False)
@@ -267,7 +278,7 @@ def test_a_tight_memory_budget_segments_the_backward_pass_and_changes_no_result(
     )
     said = capsys.readouterr().err
     assert "segments of 10 steps" in said and "sim.memory_budget" in said
-    for a, b in zip(plain.metrics, tight.metrics):
+    for a, b in zip(plain.metrics, tight.metrics, strict=True):
         assert a["task_loss"] == pytest.approx(b["task_loss"], rel=1e-5, abs=1e-7)
     # The budget is not a result: a run resumes with another.
     resumed = run(tiny_robot(), tiny_config(observer={"kind": "kmeans"}), tmp_path / "tight", progress=False)

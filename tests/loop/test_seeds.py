@@ -43,9 +43,11 @@ def test_vmapped_seeds_equal_sequential_runs(x64):
     alone_episode = episode_of(algorithm, False)
     for index, seed in enumerate(seeds):
         alone, alone_measured = alone_episode(algorithm.init(seed))
-        for batched, single in zip(measured, alone_measured):
+        for batched, single in zip(measured, alone_measured, strict=True):
             np.testing.assert_allclose(batched[index], single, rtol=1e-6)
-        for batched, single in zip(jax.tree.leaves(seed_slice(together, index)), jax.tree.leaves(alone)):
+        for batched, single in zip(
+            jax.tree.leaves(seed_slice(together, index)), jax.tree.leaves(alone), strict=True
+        ):
             np.testing.assert_allclose(batched, single, rtol=1e-6, atol=1e-9)
     # Different seeds really are different runs.
     assert measured[0][0] != measured[0][1]
@@ -60,7 +62,7 @@ def test_learning_phases_run_one_seed_at_a_time_equal_the_vmapped_phases(x64):
     states, _ = jax.jit(jax.vmap(algorithm.bootstrap))(states)
     expected = jax.jit(jax.vmap(algorithm.learn))(states)
     got = jax.jit(functools.partial(algorithm.learn_seeds, at_once=1))(states)
-    for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected)):
+    for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected), strict=True):
         np.testing.assert_allclose(mine, theirs, rtol=1e-6, atol=1e-9)
     # The phases learned something, and each seed its own observer.
     learned = jax.tree.leaves(expected[0].observer)[0]

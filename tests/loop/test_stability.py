@@ -5,6 +5,7 @@ import json
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import litl.robots
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
@@ -18,7 +19,7 @@ from tests.loop.tiny import tiny_config, tiny_robot
 def _same(a, b):
     return all(
         np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
-        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b))
+        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True)
     )
 
 
@@ -64,7 +65,8 @@ def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():
     state = algorithm.init(0)
     after, metrics = jax.jit(algorithm.optimize)(state)
     assert int(metrics["skipped"]) == 0 and int(after.consecutive_skips) == 0
-    assert float(after.best.task_loss) == float(metrics["task_loss"])
+    # One value XLA may compute twice (fused into two consumers): equal to float32 rounding.
+    assert float(after.best.task_loss) == pytest.approx(float(metrics["task_loss"]), rel=1e-6, abs=1e-9)
     assert int(after.best.step) == 0
     assert _same(after.best.controller, state.controller)  # the parameters that were simulated
     assert not _same(after.controller, state.controller)  # ... then updated
@@ -128,7 +130,9 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     learn = jax.jit(algorithm.learn)
     first, stats = learn(jax.jit(algorithm.fill)(algorithm.init(0)), first=True)
     assert bool(stats.update_accepted)
-    for mine, bootstrapped in zip(jax.tree.leaves(first.observer), jax.tree.leaves(state.observer)):
+    for mine, bootstrapped in zip(
+        jax.tree.leaves(first.observer), jax.tree.leaves(state.observer), strict=True
+    ):
         np.testing.assert_allclose(mine, bootstrapped, rtol=1e-5, atol=1e-7)
     later, stats = learn(state, first=False)
     assert not bool(stats.update_accepted) and _same(later.observer, state.observer)
@@ -164,8 +168,8 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     for halvings in (1, 2, 3):
         state, metrics = optimize(state)
         assert bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 0.5**halvings
-        expected = jax.tree.map(lambda a, u: a + u * 0.5**halvings, start.controller, full_step)
-        for got, want in zip(jax.tree.leaves(state.controller), jax.tree.leaves(expected)):
+        expected = jax.tree.map(lambda a, u, h=halvings: a + u * 0.5**h, start.controller, full_step)
+        for got, want in zip(jax.tree.leaves(state.controller), jax.tree.leaves(expected), strict=True):
             np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7)
     state, metrics = optimize(state)  # three halvings: accepted whatever it is
     assert not bool(metrics["stepped_back"]) and float(state.anchor.step_scale) == 1.0
@@ -201,6 +205,6 @@ def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():
         constant, constant_state = step(1.0, iteration)
         decayed, decayed_state = step(0.25, iteration)
         assert _same(constant_state.controller_optimizer, decayed_state.controller_optimizer)
-        for got, full in zip(jax.tree.leaves(decayed), jax.tree.leaves(constant)):
+        for got, full in zip(jax.tree.leaves(decayed), jax.tree.leaves(constant), strict=True):
             assert np.abs(full).max() > 0
             np.testing.assert_allclose(got, full * factor, rtol=1e-4, atol=1e-8)

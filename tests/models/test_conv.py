@@ -44,7 +44,7 @@ def test_the_layer_has_flaxs_parameters_outputs_and_gradients(transpose, x64):
 
         np.testing.assert_allclose(layer.apply(params, x), reference.apply(params, x), rtol=1e-12, atol=1e-12)
         grads = jax.grad(loss)(params, layer), jax.grad(loss)(params, reference)
-        for a, b in zip(*map(jax.tree_util.tree_leaves, grads)):
+        for a, b in zip(*map(jax.tree_util.tree_leaves, grads), strict=True):
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
 

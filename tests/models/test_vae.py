@@ -43,7 +43,7 @@ def _train(model, fields, steps=500, seed=0):
     opt_state = optimizer.init(params.network)
     step = jax.jit(vae.make_train_step(model, optimizer, beta=1.0))
     key = jax.random.key(seed + 1)
-    for i in range(steps):
+    for _ in range(steps):
         key, batch_key, noise_key = jax.random.split(key, 3)
         batch = fields[jax.random.choice(batch_key, len(fields), (32,), replace=False)]
         params, opt_state, out = step(params, opt_state, batch, noise_key)
@@ -132,7 +132,7 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
     two = jax.tree.map(lambda a: jnp.stack([a, -a]), params)
     batched = jax.jit(jax.vmap(lambda p: rollout(p, design, state)[0].x))(two)
     for i in range(2):
-        single = jax.jit(lambda p: rollout(p, design, state)[0].x)(jax.tree.map(lambda a: a[i], two))
+        single = jax.jit(lambda p: rollout(p, design, state)[0].x)(jax.tree.map(lambda a, i=i: a[i], two))
         np.testing.assert_allclose(batched[i], single, rtol=1e-4, atol=1e-5)
 
 

@@ -11,6 +11,9 @@ from litl.sim import ConfigError, make_rollout
 from litl.sim.step import resolve_buffering
 from tests.sim.scenes import block, sine_params, sine_policy
 
+# Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
+pytestmark = pytest.mark.gpu
+
 SETTINGS = ("none", "fields", "fields_and_nodes")
 
 
@@ -32,7 +35,7 @@ def test_auto_keeps_the_measured_cpu_choice_and_is_plain_elsewhere(dim, cpu_choi
         assert resolve_buffering(config) == cpu_choice
 
 
-def test_every_setting_gives_the_same_values_and_gradients(dim=2, settings=SETTINGS):
+def test_every_setting_gives_the_same_values_and_gradients(deterministic, dim=2, settings=SETTINGS):
     config, body, design, state = _tiny(dim)
     params = sine_params(body.n_actuators)
 
@@ -52,10 +55,10 @@ def test_every_setting_gives_the_same_values_and_gradients(dim=2, settings=SETTI
         value, grads = value_and_grad(setting)
         if setting == resolve_buffering(config):
             # The same program as "auto": bitwise equal.
-            for a, b in zip(jax.tree.leaves((value, grads)), jax.tree.leaves(auto)):
+            for a, b in zip(jax.tree.leaves((value, grads)), jax.tree.leaves(auto), strict=True):
                 np.testing.assert_array_equal(a, b)
         np.testing.assert_allclose(value, auto[0], rtol=1e-6)
-        for a, b in zip(jax.tree.leaves(grads), jax.tree.leaves(auto[1])):
+        for a, b in zip(jax.tree.leaves(grads), jax.tree.leaves(auto[1]), strict=True):
             scale = float(jnp.max(jnp.abs(b)))
             assert scale > 0
             np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-5 * scale)
@@ -81,7 +84,7 @@ def test_3d_node_buffering_gives_the_same_rollout_as_none():
         return jax.jit(rollout)(params, design, state)
 
     auto, none = forward("auto"), forward("none")
-    for a, b in zip(jax.tree.leaves(auto), jax.tree.leaves(none)):
+    for a, b in zip(jax.tree.leaves(auto), jax.tree.leaves(none), strict=True):
         # float32 sums in another order: rounding-level differences, relative to each field's size
         scale = float(np.max(np.abs(b))) if np.size(b) else 0.0
         np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-4 * scale)

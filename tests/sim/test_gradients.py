@@ -8,10 +8,15 @@ import pytest
 from litl.sim import make_rollout, raise_if_unhealthy
 from tests.sim.scenes import block, sine_params, sine_policy
 
+# Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
+pytestmark = pytest.mark.gpu
+
 
 def _directional_check(f, grad_f, x, direction, eps=1e-6, rtol=1e-5):
     """Compare <grad f(x), u> with a central difference of f along the direction u."""
-    analytic = sum(jnp.vdot(g, d) for g, d in zip(jax.tree.leaves(grad_f(x)), jax.tree.leaves(direction)))
+    analytic = sum(
+        jnp.vdot(g, d) for g, d in zip(jax.tree.leaves(grad_f(x)), jax.tree.leaves(direction), strict=True)
+    )
     shifted = lambda s: jax.tree.map(lambda a, d: a + s * eps * d, x, direction)
     numeric = (f(shifted(1.0)) - f(shifted(-1.0))) / (2 * eps)
     assert np.isfinite(float(analytic)) and abs(float(numeric)) > 1e-8

@@ -56,7 +56,7 @@ def test_a_tight_budget_picks_segments_and_the_gradient_is_unchanged(dim, x64):
     # A generous budget keeps the plain backward pass.
     assert gradient(memory_budget=10 * plain_plan.plain_bytes)[0].checkpoint_every is None
     np.testing.assert_allclose(value, plain_value, rtol=1e-12)
-    for a, b in zip(jax.tree.leaves(grads), jax.tree.leaves(plain_grads)):
+    for a, b in zip(jax.tree.leaves(grads), jax.tree.leaves(plain_grads), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-14)
 
 

@@ -9,6 +9,9 @@ from litl.sim import make_rollout, make_step, rasterize
 from litl.sim.step import Components
 from tests.sim.scenes import block, sine_params, sine_policy
 
+# Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
+pytestmark = pytest.mark.gpu
+
 
 @pytest.fixture(scope="module")
 def scene():
@@ -73,7 +76,7 @@ def test_remat_does_not_change_values_or_gradients(scene):
     v1, g1 = jax.jit(jax.value_and_grad(loss(True)))(params)
     v2, g2 = jax.jit(jax.value_and_grad(loss(False)))(params)
     np.testing.assert_allclose(v1, v2, rtol=1e-6)
-    for a, b in zip(jax.tree.leaves(g1), jax.tree.leaves(g2)):
+    for a, b in zip(jax.tree.leaves(g1), jax.tree.leaves(g2), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-7)
 
 
@@ -84,19 +87,19 @@ def test_vmap_over_two_designs_equals_two_runs(scene):
     designs = jax.tree.map(lambda a: jnp.stack([a, a * 1.5]), design)
     batched_final, batched_traj = jax.jit(jax.vmap(rollout, in_axes=(None, 0, None)))(params, designs, state)
     for i in range(2):
-        single = jax.tree.map(lambda a: a[i], designs)
+        single = jax.tree.map(lambda a, i=i: a[i], designs)
         final, trajectory = jax.jit(rollout)(params, single, state)
         np.testing.assert_allclose(batched_final.x[i], final.x, rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(batched_traj.snapshots[i], trajectory.snapshots, atol=1e-4)
     assert not np.allclose(batched_final.x[0], batched_final.x[1])
 
 
-def test_same_inputs_give_identical_results(scene):
+def test_same_inputs_give_identical_results(scene, deterministic):
     config, body, design, state = scene
     rollout = jax.jit(make_rollout(config, body, sine_policy, 40))
     a = rollout(sine_params(body.n_actuators), design, state)
     b = rollout(sine_params(body.n_actuators), design, state)
-    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)):
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
         np.testing.assert_array_equal(x, y)
 
 
@@ -104,7 +107,7 @@ def test_component_form_round_trips(scene):
     _, _, _, state = scene
     state = state.replace(C=state.C + 0.5, F=state.F * 2.0)
     back = Components.unpack(state).pack()
-    for x, y in zip(jax.tree.leaves(state), jax.tree.leaves(back)):
+    for x, y in zip(jax.tree.leaves(state), jax.tree.leaves(back), strict=True):
         np.testing.assert_array_equal(x, y)
 
 
@@ -136,7 +139,7 @@ def test_segment_checkpointing_changes_nothing_but_memory(stride, every, x64):
     (v1, out1), g1 = run(None)
     (v2, out2), g2 = run(every)
     np.testing.assert_allclose(v1, v2, rtol=1e-12)
-    for a, b in zip(jax.tree.leaves((out1, g1)), jax.tree.leaves((out2, g2))):
+    for a, b in zip(jax.tree.leaves((out1, g1)), jax.tree.leaves((out2, g2)), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
     assert out2[1].observations.shape == (37, 2)
     assert out2[1].snapshots.shape[0] == (37 // stride if stride else 0)

@@ -171,7 +171,7 @@ def test_stiffness_colours_each_region_by_its_youngs_modulus(robot2d, tmp_path):
     colors = particle_facecolors(ax)
     viridis = plt.get_cmap("viridis")
     free = ~layout.pinned
-    for region, value in zip(range(3), (0.0, 1.0, 0.5)):
+    for region, value in zip(range(3), (0.0, 1.0, 0.5), strict=True):
         np.testing.assert_allclose(
             colors[free & (layout.region == region)],
             np.broadcast_to(viridis(value), (np.sum(free & (layout.region == region)), 4)),
