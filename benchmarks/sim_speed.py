@@ -6,7 +6,7 @@
     python benchmarks/sim_speed.py --scenes block3d_1m --steps 2 --particles 4000   # smoke
 
 Scenes:
-  walker2d          the reference walker (shared/reference/walker2d.md), float32, 1023 steps
+  walker2d          the reference walker (tests/sim/data/walker2d.md), float32, 1023 steps
   quadruped3d       ~28k particles on a 64^3 grid, 511 steps, 16 actuators, neo-Hookean
   walker2d_vmap10   the walker with 10 different controllers, vmapped
   block3d_1m        throughput: an elastic block of 51^3 cells x 8 = 1,061,208 particles (or

@@ -1,4 +1,4 @@
-"""The reference scene: DiffTaichi's classic 2D MPM walker (`shared/reference/walker2d.md`).
+"""The reference scene: DiffTaichi's classic 2D MPM walker (`tests/sim/data/walker2d.md`).
 
 It is litl's external check that physics and gradients are right, so every number here follows
 that published scene exactly.
