@@ -7,7 +7,8 @@
 
 Runs go to `OUT/runs/<method>/<panel>/<variant>` (a second call resumes them); `OUT/claims.md`
 and `claims.csv` hold one row per claim and method (means with 90% intervals, a one-sided Welch
-p-value, a verdict by a stated rule, see `litl.claims.verdicts`), `table1.md` the paper's Table 1
+p-value, a verdict by a stated rule and the verdict that survives a Holm-Bonferroni correction
+over the table's tests, see `litl.claims.verdicts`), `table1.md` the paper's Table 1
 from the biped's runs, and `fig4a.png` ... `fig4d.png` the panels with 90% bands.
 """
 

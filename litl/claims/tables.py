@@ -10,7 +10,7 @@ import pathlib
 import numpy as np
 
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
-from litl.claims.verdicts import ALPHA, CLAIMS, Verdict, judge, retraining_effects
+from litl.claims.verdicts import ALPHA, CLAIMS, Verdict, judge, retraining_effects, with_holm
 from litl.formatting import format_number
 from litl.report import figures
 from litl.report.runs import Group, load_run
@@ -35,6 +35,17 @@ CSV_FIELDS = (
     "verdict",
     "rule",
     "source",
+    "test_p",
+    "holm_p",
+    "holm_verdict",
+)
+
+# The paper's appendix (its hyperparameters) was not available: method=paper is litl's reading of
+# the paper's text, so a verdict under it is about that reading (docs/guide/method.md).
+PAPER_CAVEAT = (
+    "method=paper is litl's reading of the paper's text: the paper's appendix with its "
+    "hyperparameters was not available, so a paper-method verdict judges that reading, not the "
+    "paper's own runs (docs/guide/method.md)."
 )
 
 
@@ -56,14 +67,17 @@ def load_groups(out, suite: list[Cell], config_of) -> tuple[dict, list[str]]:
 
 
 def verdicts(groups: dict, methods, level: float = 0.9) -> list[Verdict]:
-    """Every claim whose panel was run, under every method asked for."""
+    """Every claim whose panel was run, under every method asked for, with Holm-adjusted p over
+    all of them (the table's family of tests)."""
     panels = {panel for _, panel in groups}
-    return [
-        judge(claim, method, groups.get((method, claim.panel), {}), level)
-        for method in methods
-        for claim in CLAIMS
-        if claim.panel in panels
-    ]
+    return with_holm(
+        [
+            judge(claim, method, groups.get((method, claim.panel), {}), level)
+            for method in methods
+            for claim in CLAIMS
+            if claim.panel in panels
+        ]
+    )
 
 
 def _cells(estimate) -> list:
@@ -91,6 +105,9 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
                 v.verdict,
                 v.rule,
                 c.source,
+                v.test_p,
+                v.holm_p,
+                v.holm_verdict,
             ]
             writer.writerow(["" if isinstance(x, float) and not math.isfinite(x) else x for x in row])
     return path
@@ -110,6 +127,7 @@ def _interval(estimate) -> str:
 def claims_markdown(
     results: list[Verdict], level: float, command: str, unfinished: list[str], timings: dict
 ) -> str:
+    family = sum(math.isfinite(v.test_p) for v in results)
     lines = [
         "# The paper's claims, measured",
         "",
@@ -121,15 +139,27 @@ def claims_markdown(
         f"For Table 1, a is the change of the objective after retraining plus one step "
         f"(negative: progress lost) and b the progress per episode.",
         "",
-        "| claim | method | a | a: mean [CI] | b | b: mean [CI] | p | verdict |",
-        "|---|---|---|---|---|---|---:|---|",
+        f"The table makes {family} one-sided tests at once, one per row with a p: the test its "
+        f"verdict rests on (p's own for a row that holds; the opposite one-sided test, p-value "
+        f"1 − p, for a contradicted row; the smaller of the two for a row not resolved; a "
+        f"'competitive' row's p is already its one test, of a being worse, and its holding rests "
+        f"on a margin). Holm p is that test's p-value, Holm–Bonferroni-adjusted over the "
+        f"{family}; *after Holm* is the verdict that survives the correction (a verdict whose "
+        f"adjusted p is not below {ALPHA} becomes not resolved).",
+        "",
+        "| claim | method | a | a: mean [CI] | b | b: mean [CI] | p | verdict | Holm p | after Holm |",
+        "|---|---|---|---|---|---|---:|---|---:|---|",
     ]
     for v in results:
+        caveat = " (†)" if v.method == "paper" else ""
         lines.append(
             f"| {v.claim.statement} | {v.method} | {v.claim.a} | {_interval(v.a)} | "
             f"{v.claim.b or 'progress/episode'} | {_interval(v.b)} | "
-            f"{format_number(v.p, '.3g')} | **{v.verdict}** |"
+            f"{format_number(v.p, '.3g')} | **{v.verdict}**{caveat} | "
+            f"{format_number(v.holm_p, '.3g')} | {v.holm_verdict}{caveat} |"
         )
+    if any(v.method == "paper" for v in results):
+        lines += ["", f"(†) {PAPER_CAVEAT}"]
     lines += ["", "## Rules", ""]
     for claim_id, rule in dict.fromkeys((v.claim.id, v.rule) for v in results):
         lines.append(f"- `{claim_id}`: {rule}")

@@ -15,6 +15,10 @@ the same 5% tail on each side as the paper's 90% intervals):
   progress an episode makes (mean decrease of the task loss from an episode's first iteration to
   its last). Holds when the 90% interval of the mean change lies above -MARGIN x progress, is
   contradicted when it lies below, not resolved when it straddles.
+
+A table of claims makes many such tests at once, so each verdict also gets a Holm-adjusted p
+(`with_holm`): Holm-Bonferroni over the family of one-sided tests in the table, one per claim and
+method (the test its verdict rests on), and the verdict that survives the correction.
 """
 
 from __future__ import annotations
@@ -196,6 +200,11 @@ class Verdict:
       p: the one-sided Welch p-value of the test that would make the claim hold (NaN: none).
       verdict: HOLDS, NOT_RESOLVED, CONTRADICTED or NO_DATA.
       rule: the rule applied, in words.
+      test_p: the one-sided p-value of the test the verdict rests on: the test that makes the
+        claim hold for HOLDS, the opposite one for CONTRADICTED, the smaller of the two for
+        NOT_RESOLVED; for a "competitive" claim always the test of a being worse (its HOLDS
+        rests on a margin, not a test). NaN: no test.
+      holm_p: `test_p` Holm-adjusted over a table's family of tests (NaN until `with_holm`).
     """
 
     claim: Claim
@@ -205,6 +214,35 @@ class Verdict:
     p: float
     verdict: str
     rule: str
+    test_p: float = math.nan
+    holm_p: float = math.nan
+
+    @property
+    def holm_verdict(self) -> str:
+        """The verdict once its test is Holm-adjusted: a HOLDS or CONTRADICTED whose adjusted p
+        is not below ALPHA becomes NOT_RESOLVED (a "competitive" claim that is no longer
+        contradicted holds if its mean is within the margin); the rest are unchanged."""
+        if self.verdict not in (HOLDS, CONTRADICTED):
+            return self.verdict
+        if self.claim.kind == "competitive":
+            if self.verdict == HOLDS or self.holm_p < ALPHA:
+                return self.verdict  # holding rests on the margin; the correction only helps it
+            return HOLDS if _within_margin(self.a, self.b) else NOT_RESOLVED
+        return self.verdict if self.holm_p < ALPHA else NOT_RESOLVED
+
+
+def _within_margin(a: Estimate, b: Estimate) -> bool:
+    """A "competitive" claim's margin: a's mean within MARGIN of b's |mean|, or lower."""
+    return a.mean <= b.mean + MARGIN * abs(b.mean)
+
+
+def _test_p(verdict: str, holding: float, opposite: float) -> float:
+    """The p-value a verdict rests on, from the two one-sided tests of a claim."""
+    if verdict == HOLDS:
+        return holding
+    if verdict == CONTRADICTED:
+        return opposite
+    return min(holding, opposite) if math.isfinite(holding) and math.isfinite(opposite) else math.nan
 
 
 def _compare(claim: Claim, a_values, b_values, level: float):
@@ -212,21 +250,20 @@ def _compare(claim: Claim, a_values, b_values, level: float):
     better = welch_p_lower(a_values, b_values)
     worse = welch_p_lower(b_values, a_values)
     if a.n < 2 or b.n < 2:
-        return a, b, better, NO_DATA, "needs at least 2 seeds with a final task loss in each"
+        return a, b, better, NO_DATA, "needs at least 2 seeds with a final task loss in each", math.nan
     if claim.kind == "beats":
         verdict = HOLDS if better < ALPHA else CONTRADICTED if worse < ALPHA else NOT_RESOLVED
         rule = (
             f"holds if {claim.a} is lower with one-sided Welch p < {ALPHA}; contradicted if "
             f"it is higher with p < {ALPHA}"
         )
-        return a, b, better, verdict, rule
-    within = a.mean <= b.mean + MARGIN * abs(b.mean)
-    verdict = CONTRADICTED if worse < ALPHA else HOLDS if within else NOT_RESOLVED
+        return a, b, better, verdict, rule, _test_p(verdict, better, worse)
+    verdict = CONTRADICTED if worse < ALPHA else HOLDS if _within_margin(a, b) else NOT_RESOLVED
     rule = (
         f"contradicted if {claim.a} is higher with one-sided Welch p < {ALPHA}; else holds "
         f"if its mean is within {MARGIN:.0%} of {claim.b}'s |mean| or lower"
     )
-    return a, b, worse, verdict, rule
+    return a, b, worse, verdict, rule, worse
 
 
 def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
@@ -265,19 +302,22 @@ def _retraining(claim: Claim, group: Group, level: float):
         f"mean progress per episode; contradicted if it lies below; else not resolved"
     )
     if change.n < 2 or not math.isfinite(progress.mean):
-        return change, progress, math.nan, NO_DATA, "needs retrainings in at least 2 seeds"
+        return change, progress, math.nan, NO_DATA, "needs retrainings in at least 2 seeds", math.nan
     threshold = -MARGIN * max(progress.mean, 0.0)
     verdict = HOLDS if change.low > threshold else CONTRADICTED if change.high < threshold else NOT_RESOLVED
     # The p-value of "the mean change is above the threshold" (one-sample, one-sided).
     from scipy.stats import ttest_1samp
 
     finite = change_values[np.isfinite(change_values)]
-    p = (
-        float(ttest_1samp(finite, threshold, alternative="greater").pvalue)
+    p, opposite = (
+        (
+            float(ttest_1samp(finite, threshold, alternative="greater").pvalue),
+            float(ttest_1samp(finite, threshold, alternative="less").pvalue),
+        )
         if np.ptp(finite) > 0
-        else math.nan
+        else (math.nan, math.nan)
     )
-    return change, progress, p, verdict, rule
+    return change, progress, p, verdict, rule, _test_p(verdict, p, opposite)
 
 
 def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.9) -> Verdict:
@@ -292,3 +332,36 @@ def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.
     else:
         result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]), level)
     return Verdict(claim, method, *result)
+
+
+def holm(p_values) -> np.ndarray:
+    """Holm-Bonferroni adjusted p-values (step-down; family-wise error rate at any alpha).
+
+    Args:
+      p_values: (m,) p-values of the family; NaN entries (no test) are left out of it and stay
+        NaN.
+
+    Returns:
+      (m,) adjusted p-values in the input's order: the k-th smallest of the n finite ones is
+      multiplied by n - k + 1, made non-decreasing along that order and capped at 1.
+    """
+    p = np.asarray(p_values, np.float64)
+    if p.ndim != 1:
+        raise ValueError(f"holm expects a 1-D sequence of p-values, got shape {p.shape}")
+    finite = np.isfinite(p)
+    if np.any((p[finite] < 0) | (p[finite] > 1)):
+        raise ValueError(f"p-values must lie in [0, 1], got {p[finite & ((p < 0) | (p > 1))]}")
+    adjusted = np.full(p.shape, math.nan)
+    index = np.flatnonzero(finite)
+    order = index[np.argsort(p[index], kind="stable")]
+    n = len(order)
+    scaled = p[order] * (n - np.arange(n))
+    adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    return adjusted
+
+
+def with_holm(results: list[Verdict]) -> list[Verdict]:
+    """The verdicts with `holm_p` set: Holm over the family of their tests (one per verdict
+    with a `test_p`), so `holm_verdict` says which survive the correction."""
+    adjusted = holm([v.test_p for v in results])
+    return [dataclasses.replace(v, holm_p=float(p)) for v, p in zip(results, adjusted, strict=True)]

@@ -1,0 +1,142 @@
+"""The claims table's multiple-comparison correction: Holm-Bonferroni on known values, the
+verdicts that survive it, the table's columns, and the suite of record's page."""
+
+import csv
+import dataclasses
+import math
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from litl.claims.tables import claims_markdown, write_csv
+from litl.claims.verdicts import (
+    CLAIMS,
+    CONTRADICTED,
+    HOLDS,
+    NOT_RESOLVED,
+    holm,
+    judge,
+    welch_p_lower,
+    with_holm,
+)
+from tests.test_claims import HIGH, LOW, SAME, claim, group
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize(
+    "p, adjusted",
+    [
+        # R: p.adjust(c(0.01, 0.02, 0.03, 0.04, 0.05), "holm")
+        ([0.01, 0.02, 0.03, 0.04, 0.05], [0.05, 0.08, 0.09, 0.09, 0.09]),
+        # Unsorted input keeps its order; 0.04 * 1 is raised to the 0.06 before it.
+        ([0.01, 0.04, 0.03, 0.005], [0.03, 0.06, 0.06, 0.02]),
+        # Capped at 1; a NaN (no test) is not in the family and stays NaN.
+        ([0.3, math.nan, 0.6], [0.6, math.nan, 0.6]),
+        ([0.5, 0.9], [1.0, 1.0]),
+        ([], []),
+    ],
+)
+def test_holm_matches_known_values(p, adjusted):
+    np.testing.assert_allclose(holm(p), adjusted, rtol=1e-12)
+
+
+def test_holm_refuses_what_is_not_a_family_of_p_values():
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        holm([0.1, 1.5])
+    with pytest.raises(ValueError, match="1-D"):
+        holm([[0.1, 0.2]])
+
+
+def test_each_verdict_rests_on_the_test_that_decided_it():
+    holds = judge(
+        claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", LOW), "kmeans": group("k", HIGH)}
+    )
+    assert holds.verdict == HOLDS and holds.test_p == holds.p
+    contradicted = judge(
+        claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", HIGH), "kmeans": group("k", LOW)}
+    )
+    assert contradicted.verdict == CONTRADICTED
+    assert contradicted.test_p == pytest.approx(welch_p_lower(LOW, HIGH), rel=1e-9)
+    assert contradicted.test_p == pytest.approx(1 - contradicted.p, abs=1e-12)
+    unresolved = judge(
+        claim("4b-vae-beats-kmeans"), "litl", {"vae": group("vae", SAME), "kmeans": group("k", LOW)}
+    )
+    assert unresolved.verdict == NOT_RESOLVED
+    assert unresolved.test_p == pytest.approx(min(unresolved.p, 1 - unresolved.p), abs=1e-12)
+
+
+def test_verdicts_that_do_not_survive_holm_become_not_resolved():
+    vae, kmeans = group("vae", LOW), group("kmeans", HIGH)
+    beats = judge(claim("4b-vae-beats-kmeans"), "litl", {"vae": vae, "kmeans": kmeans})
+    competitive = judge(claim("4a-kmeans-competitive"), "litl", {"kmeans": vae, "vae": kmeans})
+    assert beats.verdict == HOLDS and competitive.verdict == HOLDS
+    (alone,) = with_holm([beats])
+    assert alone.holm_p == pytest.approx(beats.test_p) and alone.holm_verdict == HOLDS
+    # A verdict at p = 0.02 holds alone; among three such tests its adjusted p is 0.06.
+    marginal = dataclasses.replace(beats, test_p=0.02)
+    assert with_holm([marginal])[0].holm_verdict == HOLDS
+    family = with_holm([marginal] * 3)
+    assert [v.holm_p for v in family] == pytest.approx([0.06] * 3)
+    assert all(v.holm_verdict == NOT_RESOLVED and v.verdict == HOLDS for v in family)
+    # A "competitive" claim that holds by its margin keeps holding: the correction only makes
+    # its contradiction harder.
+    (kept,) = with_holm([competitive] * 3)[:1]
+    assert kept.holm_verdict == HOLDS
+
+
+def test_the_claims_table_shows_holm_and_the_paper_caveat(tmp_path):
+    groups = {"vae": group("vae", LOW), "kmeans": group("kmeans", HIGH), "sinusoid": group("s", SAME)}
+    results = with_holm(
+        [judge(c, m, groups) for m in ("litl", "paper") for c in CLAIMS if c.panel == "fig4b" and c.b]
+    )
+    text = claims_markdown(results, 0.9, "python -m litl.claims", [], {})
+    header = next(line for line in text.splitlines() if line.startswith("| claim |"))
+    assert header.endswith("| p | verdict | Holm p | after Holm |")
+    assert f"makes {len(results)} one-sided tests" in text
+    rows = [line for line in text.splitlines() if line.startswith("| on the biped")]
+    assert len(rows) == 4
+    for row in rows:
+        assert ("(†)" in row) == ("| paper |" in row), row
+    assert "(†) method=paper is litl's reading of the paper's text" in text
+    with open(write_csv(results, tmp_path / "claims.csv")) as file:
+        written = list(csv.DictReader(file))
+    assert [float(r["holm_p"]) for r in written] == pytest.approx([v.holm_p for v in results])
+    assert [r["holm_verdict"] for r in written] == [v.holm_verdict for v in results]
+
+
+def test_the_suite_pages_holm_column_is_holm_of_its_claims_csv():
+    """The suite of record's page was corrected by hand from its claims.csv (the runs are not in
+    the repository): its Holm column must be what litl computes from that file."""
+    with open(ROOT / "docs/assets/2026-11-26/suite/claims.csv") as file:
+        rows = list(csv.DictReader(file))
+    kinds = {c.id: c.kind for c in CLAIMS}
+    test_p = []
+    for row in rows:
+        p = float(row["p"])
+        if kinds[row["claim"]] == "competitive" or row["verdict"] == HOLDS:
+            test_p.append(p)
+        elif row["verdict"] == CONTRADICTED:
+            test_p.append(1 - p)
+        else:
+            test_p.append(min(p, 1 - p))
+    adjusted = holm(test_p)
+    page = (ROOT / "docs/results/2026-11-26-claims-suite.md").read_text()
+    table = [
+        line for line in page.split("## The claims table", 1)[1].splitlines() if line.startswith("| on ")
+    ]
+    assert len(table) == len(rows) == 20
+    for line, row, value in zip(table, rows, adjusted, strict=True):
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        assert cells[1] == row["method"] and cells[0] == row["statement"]
+        assert float(cells[8]) == pytest.approx(float(f"{value:.3g}"), rel=1e-9), line
+        surviving = cells[9].replace("(†)", "").strip()
+        verdict = row["verdict"]
+        expected = (
+            verdict
+            if verdict == NOT_RESOLVED or value < 0.05 or kinds[row["claim"]] == "competitive"
+            else NOT_RESOLVED
+        )
+        assert re.sub(r"\*", "", surviving) == expected, line
