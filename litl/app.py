@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import pathlib
+from collections.abc import Sequence
+from typing import Literal
 
 import litl.robots
 from litl.config import (
@@ -32,7 +34,7 @@ from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
 
 
-def compose(overrides: list[str] = ()) -> Config:
+def compose(overrides: Sequence[str] = ()) -> Config:
     """Compose the config like the CLI does (for notebooks and tests): `Config`, checked."""
     import warnings
 
@@ -69,7 +71,7 @@ def build_robot(config: Config) -> Robot:
         robot = _with_material(robot, config.robot.material)
     kind = config.task.kind
     if kind != TaskKind.default:
-        measure = "distance" if kind == TaskKind.locomotion else "velocity"
+        measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
     return robot
 

@@ -113,7 +113,7 @@ CLOCK_PERIOD = 2 * math.pi / 30.0
 # The closed-loop controller's input gain on the observer's features (ControllerConfig.feature_scale).
 FEATURE_SCALE = 0.2
 
-RESOLUTIONS = {
+RESOLUTIONS: dict[Resolution, dict[int, float | None]] = {
     Resolution.paper: {2: None, 3: None},
     Resolution.demo: {2: 1 / 64, 3: 1 / 32},
     Resolution.smoke: {2: 1 / 32, 3: 1 / 16},
@@ -839,5 +839,6 @@ def from_hydra(cfg) -> Config:
     from omegaconf import OmegaConf, SCMode
 
     plain = OmegaConf.to_container(cfg, resolve=True, structured_config_mode=SCMode.DICT)
+    assert isinstance(plain, dict)  # a DictConfig converts to a dict
     plain.pop("hydra", None)
     return from_dict(Config, plain)

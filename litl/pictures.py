@@ -48,11 +48,12 @@ def draw_run(
     on stderr what is being drawn (the animation's rollout and the saliency take a while)."""
     run_dir = pathlib.Path(run_dir)
     status = say if progress else (lambda message: None)
-    written = []
+    written: list[pathlib.Path] = []
     algorithm = make_algorithm(robot, config)
     # Only the animation needs a rollout; without it the pictures use seed 0 (whose parameters
     # are finite: failed iterations never update them).
-    chosen, recording = 0, None
+    chosen: int | None = 0
+    recording: tuple[np.ndarray, np.ndarray] | None = None  # (positions, actuation)
     if animation:
         status("pictures: simulating the final robot for robot.gif")
         chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)

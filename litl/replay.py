@@ -53,6 +53,7 @@ def load_run_config(run_dir: pathlib.Path):
         from omegaconf import OmegaConf
 
         plain = OmegaConf.to_container(OmegaConf.load(hydra_config), resolve=True)
+        assert isinstance(plain, dict)  # the file holds a mapping
         config = from_dict(Config, upgrade(plain))
         robot = build_robot(config)
     else:  # a Python API run: the robot by name, dx and material

@@ -32,7 +32,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any, Self
 
 import jax
 import jax.numpy as jnp
@@ -100,6 +100,10 @@ class Anchor:
     task_loss: jnp.ndarray
     step_scale: jnp.ndarray
 
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
+
 
 # A step is halved at most this many times in a row; the next result is accepted whatever it is.
 MAX_STEP_BACKS = 3
@@ -138,6 +142,10 @@ class LoopState:
     anchor: Anchor
     iteration: jnp.ndarray
     consecutive_skips: jnp.ndarray
+
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
 
 
 def skip_reason(health, total, gradient_norm) -> jnp.ndarray:
@@ -233,7 +241,7 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     after each epoch (numpy values, one per seed under vmap; `Learner.reporting_epochs`)."""
     observers.check_kind(config)
     dtype = jnp.dtype(config.sim.dtype)
-    if dtype == jnp.float64 and not jax.config.jax_enable_x64:
+    if dtype == jnp.float64 and not jax.config.jax_enable_x64:  # type: ignore[attr-defined]  # a flag
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.sim.steps or robot.steps
     scene = robot.scene(dtype)
@@ -480,7 +488,9 @@ class _Pieces:
         trained, stats = jax.lax.map(
             lambda seed: self.learner.phase(*seed), (states.observer, states.buffer, keys), batch_size=at_once
         )
-        return jax.vmap(lambda *seed: self.adopt(*seed, first))(states, trained, stats)
+        return jax.vmap(lambda state, phase, phase_stats: self.adopt(state, phase, phase_stats, first))(
+            states, trained, stats
+        )
 
     def adopt(self, state: LoopState, trained, stats: LearningStats, first=False):
         """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats`, kept only

@@ -30,7 +30,8 @@ Written for one seed and batched with `jax.vmap`. The buffer has a static capaci
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, Self
 
 import jax
 import jax.numpy as jnp
@@ -110,6 +111,10 @@ class LearningStats:
     steps_per_epoch: jnp.ndarray
     update_accepted: jnp.ndarray
 
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
+
 
 @struct.dataclass
 class _LearningState:
@@ -127,9 +132,9 @@ class _LearningState:
     """
 
     epoch: jnp.ndarray
-    network: dict
+    network: Mapping[str, Any]
     opt_state: optax.OptState
-    best_network: dict
+    best_network: Mapping[str, Any]
     best_loss: jnp.ndarray
     best_epoch: jnp.ndarray
     stale_epochs: jnp.ndarray

@@ -25,6 +25,7 @@ import json
 import math
 import pathlib
 import shutil
+from typing import TypeGuard
 
 import numpy as np
 
@@ -50,7 +51,7 @@ PHASE_KEYS = (
 AXES = "xyz"
 
 
-def _number(value) -> bool:
+def _number(value) -> TypeGuard[int | float]:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 

@@ -202,6 +202,9 @@ def no_observer(robot, config, sim_config, dtype) -> Observer:
 
 
 register("vae", autoencoder)
-register("ae", lambda *args: autoencoder(*args, variational=False))
+register(
+    "ae",
+    lambda robot, config, sim_config, dtype: autoencoder(robot, config, sim_config, dtype, variational=False),
+)
 register("kmeans", kmeans)
 register("none", no_observer)

@@ -12,6 +12,8 @@ seeds is one `jax.vmap`. Its arrays keep a static shape; how many slots hold dat
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Self
+
 import jax
 import jax.numpy as jnp
 from flax import struct
@@ -58,6 +60,10 @@ class ReplayBuffer:
             count=jnp.zeros((), jnp.int32),
             cursor=jnp.zeros((), jnp.int32),
         )
+
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
 
 
 def _check_snapshots(buffer: ReplayBuffer, snapshots) -> jnp.ndarray:

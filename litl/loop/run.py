@@ -34,6 +34,8 @@ import math
 import os
 import pathlib
 import time
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import numpy as np
@@ -43,7 +45,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from litl import backend
 from litl.config import Config, flatten, seeds_at_once, upgrade
 from litl.errors import UserError
-from litl.loop.algorithm import SKIP_REASONS, LoopState, make_algorithm, seed_slice, stack_seeds
+from litl.loop.algorithm import SKIP_REASONS, Best, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
 from litl.loop.progress import Progress, say
@@ -320,7 +322,7 @@ class _Shell:
         learning_seeds_at_once: int,
     ):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
-        self.reconstruct = None
+        self.reconstruct: Callable[..., Any] | None = None
         self.plan_said = False
         batched = lambda f: jax.jit(jax.vmap(f))
         self.optimize = batched(algorithm.optimize)
@@ -338,7 +340,7 @@ class _Shell:
         self.learning_file = run_dir / "learning.jsonl"
         self.records: list[dict] = []
         self.learning: list[dict] = []
-        self.start_time = None  # of the optimization iterations (wall_s counts from it)
+        self.start_time = math.nan  # of the optimization iterations (wall_s counts from it): start()
 
     def start(self):
         """(state, counters): from the latest checkpoint (the files cut back to it), or from the
@@ -558,7 +560,7 @@ def _parameters(state) -> dict:
     return {"controller": state.controller, "design": state.design, "observer": state.observer}
 
 
-def _save_final(path: pathlib.Path, state: LoopState):
+def _save_final(path: pathlib.Path, state: LoopState | Best):
     with ocp.StandardCheckpointer() as saver:
         saver.save(path.absolute(), jax.tree.map(np.asarray, _parameters(state)), force=True)
 

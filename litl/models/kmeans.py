@@ -38,13 +38,13 @@ def fit_kmeans(positions, k: int, seed: int = 0, iterations: int = 100) -> KMean
     if not isinstance(k, int) or not 1 <= k <= len(x):
         raise ValueError(f"k must be an integer in [1, n_particles={len(x)}], got {k!r}")
     rng = np.random.default_rng(seed)
-    centers = [x[rng.integers(len(x))]]
+    picked = [x[rng.integers(len(x))]]
     for _ in range(1, k):  # k-means++: next centre with probability ~ squared distance
-        distance = np.min(((x[:, None] - np.asarray(centers)[None]) ** 2).sum(-1), axis=1)
+        distance = np.min(((x[:, None] - np.asarray(picked)[None]) ** 2).sum(-1), axis=1)
         total = distance.sum()
         pick = rng.choice(len(x), p=distance / total) if total > 0 else rng.integers(len(x))
-        centers.append(x[pick])
-    centers = np.asarray(centers)
+        picked.append(x[pick])
+    centers = np.asarray(picked)
     for _ in range(iterations):
         labels = np.argmin(((x[:, None] - centers[None]) ** 2).sum(-1), axis=1)
         updated = np.stack([x[labels == c].mean(0) if np.any(labels == c) else centers[c] for c in range(k)])

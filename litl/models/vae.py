@@ -21,7 +21,8 @@ steps (lr 3e-3), 0.73 vs 0.67 after 100 epochs (lr 3e-3 vs 1e-3), and 8 vs 5 act
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Self
 
 import flax.linen as nn
 import jax
@@ -160,8 +161,12 @@ class AutoencoderParams:
       scale: () velocity scale the fields are divided by.
     """
 
-    network: dict
+    network: Mapping[str, Any]
     scale: jnp.ndarray
+
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
 
 
 def init_autoencoder(model: ConvAutoencoder, key, dtype=jnp.float32) -> AutoencoderParams:
@@ -217,12 +222,13 @@ def loss_terms(
     predicting an empty field, for `explained_variance`); code, the (B, r) encoder means.
     """
     x = fields / params.scale
-    reconstruction, mean, log_variance = model.apply(params.network, x, key)
+    # flax types `apply` as returning Any or (Any, variables): the type checker cannot tell which.
+    reconstruction, mean, log_variance = model.apply(params.network, x, key)  # type: ignore[misc]
     recon = jnp.mean((reconstruction - x) ** 2)
     fit = recon
     if momentum_weight:
         spatial = tuple(range(1, x.ndim - 1))
-        estimate = model.apply(params.network, mean, method="momentum")
+        estimate: jnp.ndarray = model.apply(params.network, mean, method="momentum")  # type: ignore[assignment]
         fit = fit + momentum_weight * jnp.mean((estimate - jnp.mean(x, axis=spatial)) ** 2)
     if model.variational:
         kl = 0.5 * jnp.mean(jnp.sum(jnp.exp(log_variance) + mean**2 - 1.0 - log_variance, axis=-1))

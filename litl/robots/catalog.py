@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from importlib import resources
+from typing import Any
 
 import numpy as np
 
@@ -126,7 +127,9 @@ def biped(dx: float) -> Robot:
     )
 
 
-ARM = dict(width=0.08, length=0.24, segments=3, strength=1.5, duration=1.0, target=(0.1, -0.02))
+ARM: dict[str, Any] = dict(
+    width=0.08, length=0.24, segments=3, strength=1.5, duration=1.0, target=(0.1, -0.02)
+)
 
 
 def arm(dx: float) -> Robot:

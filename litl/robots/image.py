@@ -28,6 +28,7 @@ import json
 import os
 import pathlib
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,7 @@ LEGEND_KEYS = {"actuator", "fiber", "region", "groups", "pinned"}
 
 def default_legend() -> dict:
     """The default palette as a legend."""
-    legend = {"#000000": {}, "#808080": {"pinned": True}}
+    legend: dict[str, dict[str, Any]] = {"#000000": {}, "#808080": {"pinned": True}}
     for k, colour in enumerate(ACTUATOR_COLOURS):
         legend[colour] = {"actuator": k, "region": k + 1}
     return legend
@@ -52,7 +53,7 @@ def _colour(key) -> tuple[int, int, int]:
     if len(text) != 7 or text[0] != "#":
         raise LayoutError(f"legend colour {key!r} must be written '#rrggbb'")
     try:
-        return tuple(int(text[i : i + 2], 16) for i in (1, 3, 5))
+        return int(text[1:3], 16), int(text[3:5], 16), int(text[5:7], 16)
     except ValueError:
         raise LayoutError(f"legend colour {key!r} is not hexadecimal '#rrggbb'") from None
 
@@ -70,7 +71,7 @@ def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
             raise LayoutError(f"cannot read legend {legend}: {error}") from None
         if not isinstance(legend, dict):
             raise LayoutError('a legend file must hold a JSON object {"#rrggbb": {...}}')
-    parsed = {}
+    parsed: dict[tuple[int, int, int], dict | str] = {}
     for key, role in legend.items():
         rgb = _colour(key)
         if role == "empty":
@@ -106,8 +107,8 @@ def layout_from_pixels(
     roles = read_legend(legend)
     rgb = np.asarray(rgb, np.uint8)
     empty = ~np.asarray(opaque, bool)
-    for colour in EMPTY_COLOURS:
-        empty |= np.all(rgb == _colour(colour), axis=-1)
+    for written in EMPTY_COLOURS:
+        empty |= np.all(rgb == _colour(written), axis=-1)
     for colour, role in roles.items():
         if role == "empty":
             empty |= np.all(rgb == colour, axis=-1)
@@ -139,7 +140,7 @@ def layout_from_pixels(
     sampled = rgb[row, column]
     labels = LabelMerger(len(points))
     for colour, role in roles.items():
-        if role == "empty":
+        if isinstance(role, str):  # "empty", the only other role
             continue
         mask = inside & ~empty[row, column] & np.all(sampled == colour, axis=-1)
         if not mask.any():

@@ -134,6 +134,7 @@ class Robot:
 
 def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:
     """Raise `ConfigError` unless every particle lies inside the walls with a cell of margin."""
+    assert config.boundary is not None  # SimConfig sets the default box
     thickness = config.boundary.thickness
     lower = np.full(config.dim, (thickness + 0.5) * config.dx)
     upper = (np.asarray(config.grid_shape) - thickness - 0.5) * config.dx
@@ -159,6 +160,7 @@ def place(layout: Layout, config: SimConfig, x: float | None = None, lift: float
     if lower is None:
         domain = np.asarray(config.domain_size)
         lower = (domain - (high - low)) / 2
+        assert config.boundary is not None  # SimConfig sets the default box
         lower[1] = (config.boundary.thickness + 0.5 + lift) * config.dx
         if x is not None:
             lower[0] = x

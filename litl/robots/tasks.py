@@ -13,7 +13,8 @@ it through `litl.sim.make_rollout`.
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Literal
 
 import jax.numpy as jnp
 import numpy as np
@@ -89,6 +90,10 @@ class Task:
     """A weighted sum of terms, e.g. walk right while a trunk reaches a point."""
 
     terms: tuple[Term, ...]
+
+    if TYPE_CHECKING:  # for the type checker: the constructor takes one term or several
+
+        def __init__(self, terms: Term | Sequence[Term]) -> None: ...
 
     def __post_init__(self):
         terms = (self.terms,) if isinstance(self.terms, (Locomotion, Reach)) else tuple(self.terms)

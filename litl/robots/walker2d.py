@@ -34,12 +34,12 @@ N_ACTUATORS = 4
 
 def build(dtype=jnp.float32) -> Scene:
     """The walker scene in the given float dtype (float64 needs `jax.enable_x64`)."""
-    positions, actuators = [], []
+    blocks, actuators = [], []
     for x, y, w, h, actuator in RECTANGLES:
         points = sample_box((x, y), (w, h), DX, per_cell=2) + np.asarray(OFFSET)
-        positions.append(points)
+        blocks.append(points)
         actuators.append(np.full(len(points), actuator, np.int32))
-    positions = np.concatenate(positions)
+    positions = np.concatenate(blocks)
     n = len(positions)
     config = SimConfig(
         grid_shape=(128, 128),

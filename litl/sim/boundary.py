@@ -5,11 +5,12 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from litl.sim.config import Boundary, SimConfig
+from litl.sim.config import SimConfig
 
 
 def _face_masks(config: SimConfig):
     """For each face, a (*grid_shape,) numpy bool mask of the nodes inside its wall layer."""
+    assert config.boundary is not None  # SimConfig sets the default box
     t = config.boundary.thickness
     masks = []
     for axis, n in enumerate(config.grid_shape):
@@ -23,6 +24,7 @@ def pinned_node_mask(config: SimConfig) -> np.ndarray:
     """(*grid_shape,) bool mask of the nodes inside any of the boundary's pinned boxes."""
     mask = np.zeros(config.grid_shape, bool)
     coords = np.meshgrid(*[np.arange(n) * config.dx for n in config.grid_shape], indexing="ij")
+    assert config.boundary is not None  # SimConfig sets the default box
     for lo, hi in config.boundary.pinned_boxes:
         inside = np.ones(config.grid_shape, bool)
         for c, a, b in zip(coords, lo, hi, strict=True):
@@ -50,7 +52,8 @@ def apply_boundary(config: SimConfig, velocity):
     Returns:
       d arrays (*grid_shape,), the constrained velocity components.
     """
-    boundary: Boundary = config.boundary
+    boundary = config.boundary
+    assert boundary is not None  # SimConfig sets the default box
     velocity = list(velocity)
     for face, (wall, layer) in enumerate(zip(boundary.walls, _face_masks(config), strict=True)):
         if wall.kind == "open":

@@ -51,7 +51,7 @@ class Health:
         # One reduction each: NaN and infinity survive the elementwise sum and the logical and.
         total = sum([*state.x, *state.v, *(f for row in state.F for f in row)])
         finite = jnp.all(jnp.isfinite(total))
-        inside = True
+        inside: Any = True  # a bool array after the first axis
         for x, n in zip(state.x, config.grid_shape, strict=True):
             # The next step's stencil starts at floor(x / dx - 0.5) and must lie in [0, n - 3].
             cells = x / config.dx - 0.5
@@ -180,7 +180,7 @@ def make_rollout(
         )
         carry_bytes = nbytes(carry) - (0 if reads_field else nbytes(carry[1]))
         per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride if snapshot_stride else 0)
-        if checkpoint_every != "auto":
+        if not isinstance(checkpoint_every, str):  # K or None: "auto" is the only string allowed
             return CheckpointPlan(checkpoint_every, steps, carry_bytes, per_step)
         budget = default_budget_bytes() if memory_budget is None else int(memory_budget)
         return plan_checkpointing(steps, snapshot_stride or 1, carry_bytes, per_step, budget)
@@ -200,12 +200,13 @@ def make_rollout(
             field(rasterize(config, body, initial_state, design)),
             Health.ok(),
         )
-        rollout.plan = plan(
+        # A function attribute (the type checker knows functions without them).
+        rollout.plan = plan(  # type: ignore[attr-defined]
             carry,
             jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1],
             _reads(lambda g: policy(policy_params, initial_state, g), carry[1]),
         )
-        every = rollout.plan.checkpoint_every
+        every = rollout.plan.checkpoint_every  # type: ignore[attr-defined]
         # Steps run in units (a snapshot is taken after each unit), units in segments (each
         # rematerialized as a whole when there are segments).
         unit = snapshot_stride or min(every or steps, steps)
@@ -254,5 +255,5 @@ def make_rollout(
             health=health,
         )
 
-    rollout.plan = None  # set when the rollout is first traced
+    rollout.plan = None  # type: ignore[attr-defined]  # set when the rollout is first traced
     return rollout

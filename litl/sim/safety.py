@@ -137,10 +137,10 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
         "design.youngs_modulus": design.youngs_modulus,
         "design.density": design.density,
     }
-    for name, value in positive.items():
-        value = np.asarray(value)
-        if not (np.all(np.isfinite(value)) and np.all(value > 0)):
-            raise ConfigError(f"{name} must be finite and > 0 for every particle (min {value.min():g})")
+    for name, given in positive.items():
+        array = np.asarray(given)
+        if not (np.all(np.isfinite(array)) and np.all(array > 0)):
+            raise ConfigError(f"{name} must be finite and > 0 for every particle (min {array.min():g})")
     nu = np.asarray(design.poisson_ratio)
     if not (np.all(nu > -1) and np.all(nu < 0.5)):
         raise ConfigError(
@@ -167,7 +167,7 @@ def raise_if_unhealthy(health, steps: int | None = None) -> None:
     nonfinite = np.atleast_1d(np.asarray(health.first_nonfinite_step))
     escaped = np.atleast_1d(np.asarray(health.first_escape_step))
     of = f" of {steps}" if steps else ""
-    problems = []
+    problems: list[str] = []
     for index, (bad, out) in enumerate(zip(nonfinite, escaped, strict=True)):
         where = f" (batch entry {index})" if nonfinite.size > 1 else ""
         found = []

@@ -10,6 +10,7 @@ arithmetic uses per-component (n,) arrays (see `litl.sim.linalg`).
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -50,7 +51,8 @@ def stencil(x, dx, grid_shape, token=None) -> Stencil:
     With a `token` (see `linalg.materialize`) the 3^d node weights are computed into buffers, and
     so are their cotangents in reverse mode, which every position component's cotangent reads.
     """
-    bases, fx, inside = [], [], True
+    bases, fx = [], []
+    inside: Any = True  # a bool array after the first axis
     for xa, n in zip(x, grid_shape, strict=True):
         cells = xa / dx - 0.5
         base = jnp.floor(cells)

@@ -51,14 +51,15 @@ def _check_rollout(name, layout, positions, actuation):
 
 
 def _writer(suffix: str, fps: float):
+    # matplotlib's stubs say int; its writers take any positive number of frames per second.
     if suffix == ".gif":
-        return manimation.PillowWriter(fps=fps)
+        return manimation.PillowWriter(fps=fps)  # type: ignore[arg-type]
     if not manimation.writers.is_available("ffmpeg"):
         raise VizError(
             "writing .mp4 needs ffmpeg, which matplotlib cannot find: install it "
             "(e.g. `apt-get install ffmpeg` or `conda install ffmpeg`) or write a .gif"
         )
-    return manimation.FFMpegWriter(fps=fps)
+    return manimation.FFMpegWriter(fps=fps)  # type: ignore[arg-type]
 
 
 def animate_rollout(

@@ -212,7 +212,7 @@ def _wall_rectangles(config) -> list[tuple[tuple[float, float], float, float]]:
         extent = list(size)
         lower[axis] = size[axis] - thickness if high else 0.0
         extent[axis] = thickness
-        bands.append((tuple(lower), extent[0], extent[1]))
+        bands.append(((lower[0], lower[1]), extent[0], extent[1]))
     return bands
 
 
