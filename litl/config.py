@@ -23,7 +23,9 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar, NoReturn, Self, TypeVar
 
 from litl.errors import UserError
 
@@ -120,7 +122,7 @@ RESOLUTIONS: dict[Resolution, dict[int, float | None]] = {
 }
 
 
-def _number(value) -> bool:
+def _number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
@@ -129,8 +131,10 @@ class _Checked:
     `__post_init__` normalizes lists to tuples and strings to their enums, then `check`s."""
 
     KEY = ""
+    if TYPE_CHECKING:  # every subclass is a dataclass
+        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             kind = _enum_of(f.type)
@@ -150,10 +154,10 @@ class _Checked:
     def _key(self, name: str) -> str:
         return f"{self.KEY}.{name}" if self.KEY else name
 
-    def _invalid(self, name: str, text: str):
+    def _invalid(self, name: str, text: str) -> NoReturn:
         raise SettingsError(f"{self._key(name)}={getattr(self, name)!r}: {text}", self._key(name))
 
-    def _positive_ints(self, *names, optional=()):
+    def _positive_ints(self, *names: str, optional: tuple[str, ...] = ()) -> None:
         for name in names:
             value = getattr(self, name)
             if value is None and name in optional:
@@ -163,7 +167,7 @@ class _Checked:
                     name, "must be a positive integer" + (", or null for none" if name in optional else "")
                 )
 
-    def _positive_numbers(self, *names, optional=(), zero=False):
+    def _positive_numbers(self, *names: str, optional: tuple[str, ...] = (), zero: bool = False) -> None:
         for name in names:
             value = getattr(self, name)
             if value is None and name in optional:
@@ -175,19 +179,22 @@ class _Checked:
                     + (", or null for none" if name in optional else ""),
                 )
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> Self:
         """A copy with `changes`; a dict for a nested config changes only the keys it names:
         ``config.replace(loop={"episodes": 3}, seeds=2)``."""
         merged = {}
         for name, value in _moved_changes(self.KEY, changes).items():
             current = getattr(self, name)
-            if isinstance(value, dict) and dataclasses.is_dataclass(current):
+            if isinstance(value, dict) and isinstance(current, _Checked):
                 value = current.replace(**value)
             merged[name] = value
         return dataclasses.replace(self, **merged)
 
 
-def _moved_changes(section: str, changes: dict) -> dict:
+_C = TypeVar("_C", bound=_Checked)
+
+
+def _moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
     """`changes` to the config at `section` with moved keys renamed (a warning each): at the
     top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``."""
     import warnings
@@ -202,7 +209,7 @@ def _moved_changes(section: str, changes: dict) -> dict:
     return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
 
 
-def _enum_of(annotation):
+def _enum_of(annotation: object) -> type[enum.Enum] | None:
     text = str(annotation)
     for kind in (
         ControllerKind,
@@ -240,7 +247,7 @@ class MaterialConfig(_Checked):
     density: float | None = None
     actuator_strength: float | None = None
 
-    def check(self):
+    def check(self) -> None:
         self._positive_numbers("youngs_modulus", "density", optional=("youngs_modulus", "density"))
         if self.bounds is not None and not (
             len(self.bounds) == 2 and all(map(_number, self.bounds)) and 0 < self.bounds[0] <= self.bounds[1]
@@ -253,7 +260,7 @@ class MaterialConfig(_Checked):
         if self.actuator_strength is not None and not _number(self.actuator_strength):
             self._invalid("actuator_strength", "must be a finite number")
 
-    def changes(self) -> dict:
+    def changes(self) -> dict[str, Any]:
         """The `litl.robots.Material` fields this config sets."""
         names = {"bounds": "youngs_modulus_bounds"}
         return {
@@ -313,7 +320,7 @@ class AutoencoderConfig(_Checked):
     activation: Activation = Activation.elu
     field: GridField = GridField.mass_weighted
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("latent_dim")
         self._positive_numbers("window", optional=("window",))
         if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1 for c in self.channels):
@@ -328,7 +335,7 @@ class KMeansConfig(_Checked):
     KEY = "observer.kmeans"
     clusters: int = 6
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("clusters")
 
 
@@ -374,7 +381,7 @@ class MLPConfig(_Checked):
     feature_scale: float = FEATURE_SCALE
     feature_gradient: FeatureGradient = FeatureGradient.stop
 
-    def check(self):
+    def check(self) -> None:
         if not all(isinstance(w, int) and w >= 1 for w in self.widths):
             self._invalid("widths", "every width must be a positive integer")
         self._positive_numbers("feature_scale")
@@ -389,7 +396,7 @@ class SinusoidConfig(_Checked):
     KEY = "controller.sinusoid"
     omega: float = 30.0
 
-    def check(self):
+    def check(self) -> None:
         self._positive_numbers("omega")
 
 
@@ -411,7 +418,7 @@ class ControllerConfig(_Checked):
     mlp: MLPConfig = field(default_factory=MLPConfig)
     sinusoid: SinusoidConfig = field(default_factory=SinusoidConfig)
 
-    def check(self):
+    def check(self) -> None:
         self._positive_numbers("learning_rate")
 
 
@@ -435,7 +442,7 @@ class SimSettings(_Checked):
     checkpoint_every: int | str | None = "auto"
     memory_budget: float | None = None
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("steps", optional=("steps",))
         every = self.checkpoint_every
         if (
@@ -484,7 +491,7 @@ class LearningConfig(_Checked):
     patience_steps: int | None = 100
     momentum_weight: float = 0.3
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints(
             "max_epochs",
             "batch_size",
@@ -523,7 +530,7 @@ class SafeguardsConfig(_Checked):
     step_back_tolerance: float | None = 0.1
     final_learning_rate_fraction: float = 0.1
 
-    def check(self):
+    def check(self) -> None:
         self._positive_numbers("gradient_clip", optional=("gradient_clip",))
         self._positive_numbers(
             "update_tolerance",
@@ -576,7 +583,7 @@ class LoopConfig(_Checked):
     learning: LearningConfig = field(default_factory=LearningConfig)
     learning_seeds_at_once: int | None = None
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
         self._positive_ints("learning_seeds_at_once", optional=("learning_seeds_at_once",))
         self._positive_numbers("design_learning_rate")
@@ -607,7 +614,7 @@ class OutputConfig(_Checked):
     animation_stride: int = 10
     logger: LoggerKind = LoggerKind.tensorboard
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("animation_stride")
 
 
@@ -636,7 +643,7 @@ class Config(_Checked):
     seeds: int = 1
     seed: int = 0
 
-    def check(self):
+    def check(self) -> None:
         self._positive_ints("seeds")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             self._invalid("seed", "must be an integer >= 0")
@@ -654,7 +661,7 @@ class Config(_Checked):
         command line gives them: ``Config.for_method("paper").replace(seeds=10)``."""
         return cls().replace(**method_changes(method))
 
-    def run_settings(self) -> dict:
+    def run_settings(self) -> dict[str, Any]:
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
         match them): method, observer, controller, sim, loop, seeds, seed."""
         tree = json_safe(dataclasses.asdict(self))
@@ -677,7 +684,7 @@ def seeds_at_once(loop: LoopConfig, seeds: int) -> int:
     return seeds if setting is None else min(setting, seeds)
 
 
-def json_safe(tree):
+def json_safe(tree: Any) -> Any:
     """Enums as their values, tuples as lists: the tree as `json.dumps` / YAML write it."""
     if isinstance(tree, dict):
         return {key: json_safe(value) for key, value in tree.items()}
@@ -686,7 +693,7 @@ def json_safe(tree):
     return tree.value if isinstance(tree, enum.Enum) else tree
 
 
-def method_changes(method: str | Method) -> dict:
+def method_changes(method: str | Method) -> dict[str, Any]:
     """The nested changes `method` makes to `Config()` (read from litl/conf/method/<name>.yaml,
     the files the command line's `method=` group uses)."""
     from importlib import resources
@@ -731,7 +738,7 @@ def moved_message(old: str) -> str:
     return f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will not for ever"
 
 
-def translate_overrides(overrides) -> tuple[list[str], list[str]]:
+def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]:
     """Command-line overrides with moved keys renamed (`MOVED_KEYS`), and a message for each:
     ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``."""
     translated, messages = [], []
@@ -745,7 +752,7 @@ def translate_overrides(overrides) -> tuple[list[str], list[str]]:
     return translated, messages
 
 
-def upgrade(tree: dict) -> dict:
+def upgrade(tree: dict[str, Any]) -> dict[str, Any]:
     """A run's nested settings (`run.json`'s "config") with moved keys renamed; a run recorded
     before methods were named started from litl's."""
     flat = flatten(tree)
@@ -754,9 +761,9 @@ def upgrade(tree: dict) -> dict:
     return unflatten(flat)
 
 
-def unflatten(flat: dict) -> dict:
+def unflatten(flat: dict[str, Any]) -> dict[str, Any]:
     """The nested dict of a dotted-key dict (`flatten`'s inverse)."""
-    tree: dict = {}
+    tree: dict[str, Any] = {}
     for key, value in flat.items():
         *parents, leaf = key.split(".")
         node = tree
@@ -766,7 +773,7 @@ def unflatten(flat: dict) -> dict:
     return tree
 
 
-def from_dict(kind, values: dict):
+def from_dict(kind: type[_C], values: dict[Any, Any]) -> _C:
     """Build the config dataclass `kind` from a nested dict (a composed Hydra config as plain
     containers, or `run.json`); nested dicts become nested configs."""
     fields = {f.name: f for f in dataclasses.fields(kind)}
@@ -781,7 +788,7 @@ def from_dict(kind, values: dict):
     return kind(**built)
 
 
-def flatten(tree: dict, prefix: str = "") -> dict:
+def flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     """A nested dict's leaves by dotted key: ``{"loop.episodes": 10, ...}``."""
     flat = {}
     for key, value in tree.items():
@@ -792,7 +799,7 @@ def flatten(tree: dict, prefix: str = "") -> dict:
     return flat
 
 
-def _dataclass_of(annotation):
+def _dataclass_of(annotation: object) -> type[_Checked] | None:
     for kind in (
         RobotConfig,
         MaterialConfig,
@@ -823,7 +830,7 @@ def register_with_hydra() -> None:
     from hydra.core.config_store import ConfigStore
     from omegaconf import DictConfig, OmegaConf
 
-    def writable(node):
+    def writable(node: Any) -> None:
         node._set_flag("readonly", None)
         if isinstance(node, DictConfig):
             for key in node:
@@ -834,7 +841,7 @@ def register_with_hydra() -> None:
     ConfigStore.instance().store(name="litl_schema", node=node)
 
 
-def from_hydra(cfg) -> Config:
+def from_hydra(cfg: Any) -> Config:
     """Convert a composed Hydra config (DictConfig) into `Config`, checking every value."""
     from omegaconf import OmegaConf, SCMode
 

@@ -4,7 +4,7 @@ without either importing the other."""
 import math
 
 
-def format_number(value, spec: str = ".4g") -> str:
+def format_number(value: float | None, spec: str = ".4g") -> str:
     """`value` with significant digits (`spec`), "—" if it is None or not finite, never "-0".
 
     Args:

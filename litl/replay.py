@@ -22,6 +22,7 @@ import argparse
 import json
 import pathlib
 import sys
+from typing import Any, cast
 
 from litl.config import Config, from_dict, upgrade
 from litl.errors import UserError
@@ -53,8 +54,8 @@ def load_run_config(run_dir: pathlib.Path):
         from omegaconf import OmegaConf
 
         plain = OmegaConf.to_container(OmegaConf.load(hydra_config), resolve=True)
-        assert isinstance(plain, dict)  # the file holds a mapping
-        config = from_dict(Config, upgrade(plain))
+        assert isinstance(plain, dict)  # the file holds a mapping, with string keys
+        config = from_dict(Config, upgrade(cast("dict[str, Any]", plain)))
         robot = build_robot(config)
     else:  # a Python API run: the robot by name, dx and material
         import litl.robots

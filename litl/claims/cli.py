@@ -8,7 +8,7 @@ import pathlib
 import shlex
 import sys
 
-from litl.claims.suite import PANEL_NAMES, SCALES, cells, run_suite
+from litl.claims.suite import PANEL_NAMES, SCALES, Cell, cells, run_suite
 from litl.claims.tables import (
     claims_markdown,
     load_groups,
@@ -17,6 +17,7 @@ from litl.claims.tables import (
     verdicts,
     write_csv,
 )
+from litl.config import Config
 from litl.errors import UserError
 
 
@@ -79,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.exit(2, f"{parser.prog}: error: {error}\n")
 
 
-def _main(args, command: str) -> int:
+def _main(args: argparse.Namespace, command: str) -> int:
     from litl.app import compose
     from litl.claims.suite import ClaimsError, check_sizes, finished_records
 
@@ -91,9 +92,9 @@ def _main(args, command: str) -> int:
         raise ClaimsError(f"--level must lie in (0, 1), e.g. 0.9; got {args.level}")
     suite = cells(args.panels, args.methods)
     out = pathlib.Path(args.out)
-    configs = {}
+    configs: dict[str, Config] = {}
 
-    def config_of(cell):
+    def config_of(cell: Cell) -> Config:
         if cell.name not in configs:
             configs[cell.name] = compose(cell.overrides(scale, seeds))
         return configs[cell.name]

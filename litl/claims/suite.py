@@ -11,12 +11,16 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import os
 import pathlib
 import signal
 import threading
 import time
+from collections.abc import Callable, Iterator, Sequence
+from types import FrameType
+from typing import Any, NoReturn
 
-from litl.config import Method
+from litl.config import Config, Method
 from litl.errors import UserError
 
 
@@ -122,7 +126,7 @@ class Cell:
     def name(self) -> str:
         return f"{self.method}/{self.panel.name}/{self.variant.name}"
 
-    def run_dir(self, out: pathlib.Path) -> pathlib.Path:
+    def run_dir(self, out: str | os.PathLike[str]) -> pathlib.Path:
         return pathlib.Path(out) / "runs" / self.method / self.panel.name / self.variant.name
 
     def overrides(self, scale: Scale, seeds: int) -> list[str]:
@@ -139,7 +143,7 @@ class Cell:
         ]
 
 
-def cells(panels=PANEL_NAMES, methods=("litl", "paper")) -> list[Cell]:
+def cells(panels: Sequence[str] = PANEL_NAMES, methods: Sequence[str] = ("litl", "paper")) -> list[Cell]:
     """The suite's cells for the named panels and methods, method by method."""
     unknown = [name for name in panels if name not in PANEL_NAMES]
     if unknown:
@@ -161,12 +165,12 @@ def cells(panels=PANEL_NAMES, methods=("litl", "paper")) -> list[Cell]:
     ]
 
 
-def expected_records(config) -> int:
+def expected_records(config: Config) -> int:
     """metrics.jsonl lines of a finished run: one per seed and optimization iteration."""
     return config.seeds * config.loop.episodes * config.loop.iterations
 
 
-def _size(config) -> dict:
+def _size(config: Config) -> dict[str, Any]:
     return {
         "seeds": config.seeds,
         "loop.episodes": config.loop.episodes,
@@ -174,7 +178,7 @@ def _size(config) -> dict:
     }
 
 
-def check_sizes(out, suite: list[Cell], config_of) -> None:
+def check_sizes(out: str | os.PathLike[str], suite: list[Cell], config_of: Callable[[Cell], Config]) -> None:
     """Refuse (`ClaimsError`, before anything runs) an `out` holding a cell's run started at
     another size (seeds, episodes, iterations; its run.json) than `config_of(cell)`: it would
     neither resume nor compare with the others."""
@@ -198,7 +202,7 @@ def check_sizes(out, suite: list[Cell], config_of) -> None:
             )
 
 
-def _settings(size: dict) -> str:
+def _settings(size: dict[str, Any]) -> str:
     return " ".join(f"{key}={value}" for key, value in size.items())
 
 
@@ -210,7 +214,13 @@ def finished_records(run_dir: pathlib.Path) -> int:
         return sum(1 for line in file if line.strip())
 
 
-def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> dict:
+def run_suite(
+    out: str | os.PathLike[str],
+    suite: list[Cell],
+    scale: Scale,
+    seeds: int,
+    say: Callable[[str], None] = print,
+) -> dict[str, str]:
     """Run every unfinished cell of `suite` under `out`, one after another.
 
     Each cell's wall time goes into `<out>/timings.json` ({cell name: seconds}): a cell
@@ -225,7 +235,7 @@ def run_suite(out, suite: list[Cell], scale: Scale, seeds: int, say=print) -> di
 
 
 @contextlib.contextmanager
-def _stopped_by_sigterm():
+def _stopped_by_sigterm() -> Iterator[None]:
     """`kill PID` (SIGTERM) stops the suite as Ctrl-C does, once the computation under way
     returns, so the running cell keeps its time (a suite started in the background with `&`
     ignores Ctrl-C's SIGINT)."""
@@ -233,7 +243,7 @@ def _stopped_by_sigterm():
         yield
         return
 
-    def stop(signum, frame):
+    def stop(signum: int, frame: FrameType | None) -> NoReturn:
         raise KeyboardInterrupt(f"stopped by signal {signum}")
 
     previous = signal.signal(signal.SIGTERM, stop)
@@ -243,7 +253,9 @@ def _stopped_by_sigterm():
         signal.signal(signal.SIGTERM, previous)
 
 
-def _run_cells(out, suite: list[Cell], scale: Scale, seeds: int, say) -> dict:
+def _run_cells(
+    out: str | os.PathLike[str], suite: list[Cell], scale: Scale, seeds: int, say: Callable[[str], None]
+) -> dict[str, str]:
     import jax
 
     from litl.app import compose, run_experiment

@@ -5,12 +5,15 @@ from __future__ import annotations
 import csv
 import datetime
 import math
+import os
 import pathlib
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
-from litl.claims.verdicts import ALPHA, CLAIMS, Verdict, judge, retraining_effects, with_holm
+from litl.claims.verdicts import ALPHA, CLAIMS, Estimate, Verdict, judge, retraining_effects, with_holm
+from litl.config import Config
 from litl.formatting import format_number
 from litl.report import figures
 from litl.report.runs import Group, load_run
@@ -49,10 +52,16 @@ PAPER_CAVEAT = (
 )
 
 
-def load_groups(out, suite: list[Cell], config_of) -> tuple[dict, list[str]]:
+# {(method, panel name): {variant name: its runs}}
+Groups = dict[tuple[str, str], dict[str, Group]]
+
+
+def load_groups(
+    out: str | os.PathLike[str], suite: list[Cell], config_of: Callable[[Cell], Config]
+) -> tuple[Groups, list[str]]:
     """{(method, panel): {variant: Group}} of the finished cells, and the unfinished cells'
     names. `config_of(cell)` gives a cell's composed config (for its expected length)."""
-    groups: dict[tuple[str, str], dict[str, Group]] = {}
+    groups: Groups = {}
     unfinished = []
     for cell in suite:
         run_dir = cell.run_dir(out)
@@ -66,7 +75,7 @@ def load_groups(out, suite: list[Cell], config_of) -> tuple[dict, list[str]]:
     return groups, unfinished
 
 
-def verdicts(groups: dict, methods, level: float = 0.9) -> list[Verdict]:
+def verdicts(groups: Groups, methods: Sequence[str], level: float = 0.9) -> list[Verdict]:
     """Every claim whose panel was run, under every method asked for, with Holm-adjusted p over
     all of them (the table's family of tests)."""
     panels = {panel for _, panel in groups}
@@ -80,7 +89,7 @@ def verdicts(groups: dict, methods, level: float = 0.9) -> list[Verdict]:
     )
 
 
-def _cells(estimate) -> list:
+def _cells(estimate: Estimate | None) -> list[float | str]:
     if estimate is None:
         return ["", "", "", 0]
     return [estimate.mean, estimate.low, estimate.high, estimate.n]
@@ -113,7 +122,7 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
     return path
 
 
-def _interval(estimate) -> str:
+def _interval(estimate: Estimate | None) -> str:
     if estimate is None or not math.isfinite(estimate.mean):
         return "—"
     if estimate.n < 2:
@@ -125,7 +134,7 @@ def _interval(estimate) -> str:
 
 
 def claims_markdown(
-    results: list[Verdict], level: float, command: str, unfinished: list[str], timings: dict
+    results: list[Verdict], level: float, command: str, unfinished: list[str], timings: dict[str, float]
 ) -> str:
     family = sum(math.isfinite(v.test_p) for v in results)
     lines = [
@@ -187,7 +196,7 @@ def claims_markdown(
     return "\n".join(lines) + "\n"
 
 
-def table1_markdown(groups: dict, methods) -> str:
+def table1_markdown(groups: Groups, methods: Sequence[str]) -> str:
     """Table 1 per method from the biped's VAE runs: what retraining cost alone, and what
     remained after one step, per retraining (mean ± std over seeds), beside the paper's."""
     lines = [
@@ -232,7 +241,9 @@ def table1_markdown(groups: dict, methods) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot_panels(groups: dict, methods, out: pathlib.Path, level: float) -> list[pathlib.Path]:
+def plot_panels(
+    groups: Groups, methods: Sequence[str], out: pathlib.Path, level: float
+) -> list[pathlib.Path]:
     """One PNG per paper panel: task loss vs iteration with bands, a subplot per method."""
     written = []
     for panel in PANELS:

@@ -27,6 +27,7 @@ import dataclasses
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from litl.report.runs import Group
 from litl.report.stats import confidence_band, final_window_values
@@ -154,17 +155,17 @@ CLAIMS = (
 )
 
 
-def welch_p_lower(a, b) -> float:
+def welch_p_lower(a: ArrayLike, b: ArrayLike) -> float:
     """One-sided Welch t-test p-value for mean(a) < mean(b); NaN with fewer than 2 values in
     either, or no spread in both."""
     from scipy.stats import ttest_ind
 
-    a = np.asarray(a, np.float64)
-    b = np.asarray(b, np.float64)
-    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-    if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+    x = np.asarray(a, np.float64)
+    y = np.asarray(b, np.float64)
+    x, y = x[np.isfinite(x)], y[np.isfinite(y)]
+    if len(x) < 2 or len(y) < 2 or (np.ptp(x) == 0 and np.ptp(y) == 0):
         return math.nan
-    return float(ttest_ind(a, b, equal_var=False, alternative="less").pvalue)
+    return float(ttest_ind(x, y, equal_var=False, alternative="less").pvalue)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,10 +178,10 @@ class Estimate:
     n: int
 
 
-def estimate(values, level: float = 0.9) -> Estimate:
-    values = np.asarray(values, np.float64)
-    mean, low, high = confidence_band(values, level)
-    return Estimate(float(mean), float(low), float(high), int(np.isfinite(values).sum()))
+def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
+    array = np.asarray(values, np.float64)
+    mean, low, high = confidence_band(array, level)
+    return Estimate(float(mean), float(low), float(high), int(np.isfinite(array).sum()))
 
 
 def final_losses(group: Group) -> np.ndarray:
@@ -227,6 +228,7 @@ class Verdict:
         if self.claim.kind == "competitive":
             if self.verdict == HOLDS or self.holm_p < ALPHA:
                 return self.verdict  # holding rests on the margin; the correction only helps it
+            assert self.a is not None and self.b is not None  # a judged comparison has both
             return HOLDS if _within_margin(self.a, self.b) else NOT_RESOLVED
         return self.verdict if self.holm_p < ALPHA else NOT_RESOLVED
 
@@ -245,7 +247,11 @@ def _test_p(verdict: str, holding: float, opposite: float) -> float:
     return min(holding, opposite) if math.isfinite(holding) and math.isfinite(opposite) else math.nan
 
 
-def _compare(claim: Claim, a_values, b_values, level: float):
+# (a, b, p, verdict, rule, test_p): a `Verdict`'s measured fields.
+Result = tuple[Estimate, Estimate, float, str, str, float]
+
+
+def _compare(claim: Claim, a_values: np.ndarray, b_values: np.ndarray, level: float) -> Result:
     a, b = estimate(a_values, level), estimate(b_values, level)
     better = welch_p_lower(a_values, b_values)
     worse = welch_p_lower(b_values, a_values)
@@ -294,7 +300,7 @@ def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
-def _retraining(claim: Claim, group: Group, level: float):
+def _retraining(claim: Claim, group: Group, level: float) -> Result:
     change_values, progress_values = retraining_effects(group)
     change, progress = estimate(change_values, level), estimate(progress_values, level)
     rule = (
@@ -330,11 +336,12 @@ def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.
     if claim.kind == "retraining":
         result = _retraining(claim, groups[claim.a], level)
     else:
+        assert claim.b is not None  # a comparison names both sides
         result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]), level)
     return Verdict(claim, method, *result)
 
 
-def holm(p_values) -> np.ndarray:
+def holm(p_values: ArrayLike) -> np.ndarray:
     """Holm-Bonferroni adjusted p-values (step-down; family-wise error rate at any alpha).
 
     Args:

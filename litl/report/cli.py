@@ -6,7 +6,8 @@ import argparse
 import sys
 
 from litl.errors import UserError
-from litl.report.summary import format_number, unjudged_reason, write_report
+from litl.formatting import format_number
+from litl.report.summary import unjudged_reason, write_report
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -44,12 +45,14 @@ def main(argv: list[str] | None = None) -> int:
             if final["half_width"] is not None
             else " (one seed, no CI)"
         )
-        print(
-            f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  "
-            f"{format_number(final['mean'])}{half}"
-        )
+        value = f"{format_number(final['mean'])}{half}"
+        if g.get("not_a_result"):
+            value = "not a result: the task loss never left round-off (summary.md)"
+        print(f"{g['robot'] + ' / ' + g['label']:<{width}}  {g['seeds']:>5}  {value}")
     for robot, best in report.summary["best"].items():
-        if best["compared"] > 1:
+        if best["label"] is None:
+            print(f"no result for {robot}: the task loss never left round-off")
+        elif best["compared"] > 1:
             unjudged = unjudged_reason(best)
             if unjudged:
                 caveat = f" ({unjudged})"

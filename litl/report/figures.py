@@ -7,11 +7,13 @@ no open figures and needs no backend choice (PNG is rendered with Agg).
 from __future__ import annotations
 
 import math
+import os
 import pathlib
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from litl.report.runs import Group
 from litl.report.stats import Curve
 
 XLABEL = "optimization iteration"
@@ -37,7 +39,13 @@ def label_colors(labels: list[str]) -> dict[str, str]:
 
 
 def plot_panels(
-    panels, path, ylabel: str, colors: dict[str, str], level: float, log: bool = False, steps: bool = False
+    panels: list[tuple[str, list[tuple[Curve, str, str]]]],
+    path: str | os.PathLike[str],
+    ylabel: str,
+    colors: dict[str, str],
+    level: float,
+    log: bool = False,
+    steps: bool = False,
 ) -> pathlib.Path:
     """Write one PNG with a panel per entry: lines for the means, shaded confidence bands.
 
@@ -97,14 +105,18 @@ def plot_panels(
     return path
 
 
-def plot_task_loss(task_curves: list[Curve], path, colors, level) -> pathlib.Path:
+def plot_task_loss(
+    task_curves: list[Curve], path: str | os.PathLike[str], colors: dict[str, str], level: float
+) -> pathlib.Path:
     """Task loss vs optimization iteration, a panel per robot, a curve per label (Fig. 4)."""
     robots = list(dict.fromkeys(c.robot for c in task_curves))
     panels = [(robot, [(c, "-", c.label) for c in task_curves if c.robot == robot]) for robot in robots]
     return plot_panels(panels, path, "task loss", colors, level)
 
 
-def plot_components(component_curves: list[Curve], path, colors, level) -> pathlib.Path:
+def plot_components(
+    component_curves: list[Curve], path: str | os.PathLike[str], colors: dict[str, str], level: float
+) -> pathlib.Path:
     """Each task term vs optimization iteration, a panel per robot and term."""
     keys = list(dict.fromkeys((c.robot, c.key) for c in component_curves))
     panels = [
@@ -117,7 +129,13 @@ def plot_components(component_curves: list[Curve], path, colors, level) -> pathl
     return plot_panels(panels, path, "task term", colors, level)
 
 
-def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, colors, level) -> pathlib.Path:
+def plot_recon_loss(
+    val_curves: list[Curve],
+    train_curves: list[Curve],
+    path: str | os.PathLike[str],
+    colors: dict[str, str],
+    level: float,
+) -> pathlib.Path:
     """Reconstruction loss of the observer in use vs optimization iteration (Fig. 5).
 
     Solid lines are the validation loss, dashed ones the training loss, both as recorded by the
@@ -132,7 +150,9 @@ def plot_recon_loss(val_curves: list[Curve], train_curves: list[Curve], path, co
     return plot_panels(panels, path, "reconstruction loss", colors, level, log=True, steps=True)
 
 
-def plot_recon_sgd(groups, path, colors) -> pathlib.Path | None:
+def plot_recon_sgd(
+    groups: list[Group], path: str | os.PathLike[str], colors: dict[str, str]
+) -> pathlib.Path | None:
     """Validation reconstruction loss after every epoch vs optimizer (SGD) step (Fig. 5).
 
     One thin line per seed, in its label's colour; the steps of successive learning phases are

@@ -13,6 +13,7 @@ import math
 import os
 import pathlib
 import re
+from typing import Any
 
 from litl.config import MOVED_KEYS, Config, LoopConfig, Method, flatten
 from litl.errors import UserError
@@ -77,7 +78,7 @@ SHORT_NAMES = (
 )
 
 
-def method_defaults(method: str) -> dict:
+def method_defaults(method: str) -> dict[str, Any]:
     """The settings `method` sets, by dotted key: those where the methods differ."""
     starts = {m.value: flatten(Config.for_method(m).run_settings()) for m in Method}
     return {
@@ -109,22 +110,22 @@ class Run:
     """
 
     path: pathlib.Path
-    settings: dict
-    records: tuple[dict, ...]
-    learning: tuple[dict, ...] = ()
+    settings: dict[str, Any]
+    records: tuple[dict[str, Any], ...]
+    learning: tuple[dict[str, Any], ...] = ()
 
     @property
     def robot(self) -> str:
         return str(self.settings.get("robot", "robot"))
 
     @property
-    def config(self) -> dict:
+    def config(self) -> dict[str, Any]:
         """The run's settings by dotted key (``"loop.alpha"``, ``"observer.kind"``), as
         `litl.config.Config.run_settings` names them (older run.json files translated)."""
         if isinstance(self.settings.get("config"), dict):
             flat = flatten(self.settings["config"])
         else:
-            legacy = dict(self.settings.get("loop", {}))
+            legacy: dict[str, Any] = dict(self.settings.get("loop", {}))
             one_shot = legacy.pop("one_shot", False)
             simultaneous = legacy.pop("simultaneous", False)
             schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
@@ -172,7 +173,7 @@ class Run:
         return sorted({int(r["seed"]) for r in self.records})
 
 
-def _natural_key(path: pathlib.Path):
+def _natural_key(path: pathlib.Path) -> list[tuple[int, int, str]]:
     # Hydra numbers jobs 0, 1, ..., 10: sort "10" after "9".
     return [
         (0, int(part), "") if part.isdigit() else (1, 0, part)
@@ -181,7 +182,7 @@ def _natural_key(path: pathlib.Path):
     ]
 
 
-def find_run_dirs(path) -> list[pathlib.Path]:
+def find_run_dirs(path: str | os.PathLike[str]) -> list[pathlib.Path]:
     """Every directory at or below `path` holding both `run.json` and `metrics.jsonl`."""
     path = pathlib.Path(path)
     if not path.exists():
@@ -196,7 +197,7 @@ def find_run_dirs(path) -> list[pathlib.Path]:
     return sorted(found, key=_natural_key)
 
 
-def _finite(value):
+def _finite(value: Any) -> Any:
     # NaN and inf are written as null; a float that is not finite is treated the same way.
     if value is None:
         return math.nan
@@ -205,7 +206,7 @@ def _finite(value):
     return value
 
 
-def read_metrics(path) -> tuple[dict, ...]:
+def read_metrics(path: str | os.PathLike[str]) -> tuple[dict[str, Any], ...]:
     """The records of one `metrics.jsonl`; a malformed line is a `ReportError` naming it."""
     path = pathlib.Path(path)
     records = []
@@ -236,7 +237,7 @@ def read_metrics(path) -> tuple[dict, ...]:
     return tuple(records)
 
 
-def load_run(path) -> Run:
+def load_run(path: str | os.PathLike[str]) -> Run:
     """Read one run directory (`run.json` and `metrics.jsonl`)."""
     path = pathlib.Path(path)
     try:
@@ -253,7 +254,7 @@ def load_run(path) -> Run:
     )
 
 
-def read_learning(path) -> tuple[dict, ...]:
+def read_learning(path: str | os.PathLike[str]) -> tuple[dict[str, Any], ...]:
     """The learning phases of a run (`learning.jsonl`); () if the file does not exist."""
     path = pathlib.Path(path)
     if not path.exists():
@@ -278,7 +279,7 @@ def read_learning(path) -> tuple[dict, ...]:
     return tuple(records)
 
 
-def load_runs(path) -> list[Run]:
+def load_runs(path: str | os.PathLike[str]) -> list[Run]:
     """All runs at or below `path` (a run directory or a Hydra multirun directory).
 
     Raises:
@@ -309,7 +310,7 @@ def _ablation_applies(setting: str, run: Run) -> bool:
     return setting == "loop.codesign" or run.learned
 
 
-def _format(value, name: str = "") -> str:
+def _format(value: Any, name: str = "") -> str:
     if name == "dx" and isinstance(value, float) and value > 0 and abs(1 / value - round(1 / value)) < 1e-9:
         return f"1/{round(1 / value)}"
     if isinstance(value, float):
@@ -319,7 +320,7 @@ def _format(value, name: str = "") -> str:
     return str(value)
 
 
-def _comparable(run: Run) -> dict:
+def _comparable(run: Run) -> dict[str, Any]:
     """A run's settings that may tell it apart from other runs of the same robot (the steps
     used, not `sim.steps`, which may be null: the robot's default)."""
     return {
@@ -401,7 +402,7 @@ def group_runs(runs: list[Run]) -> list[Group]:
     for run, label in zip(runs, labels(runs), strict=True):
         pooled.setdefault((run.robot, label), []).append(run)
 
-    def order(key):
+    def order(key: tuple[str, str]) -> tuple[str, int, str]:
         robot, label = key
         observer = pooled[key][0].head
         rank = OBSERVER_ORDER.index(observer) if observer in OBSERVER_ORDER else len(OBSERVER_ORDER)

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 # scipy comes with jax (one of its requirements), so it costs litl no extra dependency.
 from scipy.special import stdtrit
@@ -13,22 +15,22 @@ from scipy.special import stdtrit
 from litl.report.runs import Group
 
 
-def t_quantile(probability: float, dof) -> np.ndarray:
+def t_quantile(probability: float, dof: ArrayLike) -> np.ndarray:
     """The `probability` quantile of Student's t distribution with `dof` degrees of freedom.
 
     Args:
       probability: in (0, 1), e.g. 0.95 for a two-sided 90% interval.
       dof: degrees of freedom (> 0), a number or an array.
     """
-    return stdtrit(np.asarray(dof, np.float64), probability)
+    return np.asarray(stdtrit(np.asarray(dof, np.float64), probability))
 
 
-def _check_level(level: float):
+def _check_level(level: float) -> None:
     if not (isinstance(level, (int, float)) and 0 < level < 1):
         raise ValueError(f"the confidence level must lie in (0, 1), e.g. 0.9; got {level!r}")
 
 
-def confidence_band(values, level: float = 0.9):
+def confidence_band(values: ArrayLike, level: float = 0.9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mean over seeds with a two-sided Student-t confidence interval for it.
 
     The interval is mean ± t_{(1+level)/2, n-1} · s / √n with s the sample standard deviation
@@ -55,12 +57,12 @@ def confidence_band(values, level: float = 0.9):
     return mean, mean - half, mean + half
 
 
-def _value(record: dict, key: str) -> float:
+def _value(record: dict[str, Any], key: str) -> float:
     value = record.get(key)
     return float(value) if isinstance(value, (int, float)) else math.nan
 
 
-def series(group: Group, key: str = "task_loss"):
+def series(group: Group, key: str = "task_loss") -> tuple[np.ndarray, np.ndarray]:
     """The values of one metric for every seed of a group, on the union of their steps.
 
     Args:
@@ -163,7 +165,7 @@ def components(group: Group) -> list[str]:
     )
 
 
-def table1(groups: list[Group], key: str = "retrain_change") -> list[dict]:
+def table1(groups: list[Group], key: str = "retrain_change") -> list[dict[str, Any]]:
     """The paper's Table 1: `retrain_change` per retraining, mean and standard deviation.
 
     `key` = ``"retrain_effect"`` gives the same for retraining alone (before any step).

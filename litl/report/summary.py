@@ -6,7 +6,9 @@ import csv
 import dataclasses
 import json
 import math
+import os
 import pathlib
+from typing import Any
 
 import numpy as np
 
@@ -22,6 +24,7 @@ from litl.report.stats import (
     series,
     table1,
 )
+from litl.roundoff import hardly_moved, threshold
 
 # The final performance of a seed: the mean of its last this many iterations.
 FINAL_WINDOW = 10
@@ -36,7 +39,7 @@ class Report:
       files: every file written, summary.md first.
     """
 
-    summary: dict
+    summary: dict[str, Any]
     files: tuple[pathlib.Path, ...]
 
     @property
@@ -44,12 +47,14 @@ class Report:
         return self.files[0]
 
 
-def _number(value):
+def _number(value: float | np.ndarray) -> float | None:
     value = float(value)
     return value if math.isfinite(value) else None
 
 
-def _interval(mean, low, high, n: int) -> dict:
+def _interval(
+    mean: float | np.ndarray, low: float | np.ndarray, high: float | np.ndarray, n: int
+) -> dict[str, Any]:
     """A mean with its confidence interval; with fewer than two values there is no interval
     (low, high and half_width are None), however close `confidence_band` collapsed it."""
     if n < 2:
@@ -62,7 +67,7 @@ def _interval(mean, low, high, n: int) -> dict:
     }
 
 
-def unjudged_reason(best: dict) -> str | None:
+def unjudged_reason(best: dict[str, Any]) -> str | None:
     """Why the best label of `summary["best"]` cannot be told from the runner-up, or None.
 
     A label whose final task loss comes from a single seed has no confidence interval, so however
@@ -117,7 +122,26 @@ def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[
     return notes
 
 
-def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level: float) -> dict:
+def _round_off(group: Group, source: pathlib.Path) -> dict[str, Any]:
+    """The seeds of `group` whose task loss never left round-off (`litl.roundoff`, the rule
+    `litl.gradcheck` applies), with the threshold of each run's float type."""
+    still, thresholds = [], set()
+    for run in group.runs:
+        dtype = str(run.config.get("sim.dtype") or "float32")
+        thresholds.add(threshold(dtype))
+        for seed in run.seeds:
+            losses = [
+                r.get("task_loss")
+                for r in run.records
+                if int(r["seed"]) == seed and not isinstance(r.get("skipped"), str)
+            ]
+            finite = [float(v) for v in losses if isinstance(v, (int, float))]
+            if hardly_moved(finite, dtype):
+                still.append(f"{_relative(run.path, source)} seed {seed}")
+    return {"seeds": still, "threshold": max(thresholds)}
+
+
+def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level: float) -> dict[str, Any]:
     """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
 
     Each group's final task loss has its mean and Student-t interval at `level` (low, high,
@@ -125,17 +149,36 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     lowest mean final task loss: `compared` (labels with a final task loss),
     `overlaps_runner_up` (its interval overlaps the runner-up's) and `no_interval` (which of
     the two have no interval; then the difference cannot be judged, see `unjudged_reason`).
+
+    A group none of whose seeds' task loss ever left round-off (`round_off`: those seeds and
+    the threshold) is `not_a_result` (the reason; None otherwise) and is left out of `best`.
+    The last-iterations window is never longer than the run (`iterations` in it).
     """
     notes = []
-    entries = []
+    entries: list[dict[str, Any]] = []
     for group in groups:
         final = final_values(group, "task_loss")
         mean, low, high = confidence_band(final, level)
         n = int(np.isfinite(final).sum())
         steps, values = series(group, "task_loss")
-        window = final_window_values(group, "task_loss", FINAL_WINDOW)
+        window_length = max(1, min(FINAL_WINDOW, len(steps)))
+        window = final_window_values(group, "task_loss", window_length)
         window_mean, window_low, window_high = confidence_band(window, level)
         finite_window = window[np.isfinite(window)]
+        round_off = _round_off(group, source)
+        not_a_result = None
+        if round_off["seeds"] and len(round_off["seeds"]) == group.n_seeds:
+            not_a_result = (
+                f"the task loss never left round-off (every value of every seed is below "
+                f"{round_off['threshold']:.2g} in magnitude): the robot hardly moved, so there is "
+                f"nothing to compare"
+            )
+            notes.append(f"{group.robot} / {group.label}: not a result: {not_a_result}")
+        elif round_off["seeds"]:
+            notes.append(
+                f"{group.robot} / {group.label}: the task loss of {', '.join(round_off['seeds'])} "
+                f"never left round-off (below {round_off['threshold']:.2g} in magnitude)"
+            )
         entries.append(
             {
                 "robot": group.robot,
@@ -145,7 +188,10 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
                 "runs": [_relative(run.path, source) for run in group.runs],
                 "iterations": int(steps[-1]) + 1 if len(steps) else 0,
                 "final_task_loss": {**_interval(mean, low, high, n), "n": n},
+                "round_off": round_off,
+                "not_a_result": not_a_result,
                 f"last{FINAL_WINDOW}_task_loss": {
+                    "iterations": window_length,
                     **_interval(window_mean, window_low, window_high, finite_window.size),
                     "per_seed": [_number(v) for v in window],
                     "best": _number(finite_window.min()) if finite_window.size else None,
@@ -162,10 +208,23 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     best = {}
     for robot in dict.fromkeys(e["robot"] for e in entries):
         ranked = sorted(
-            (e for e in entries if e["robot"] == robot and e["final_task_loss"]["mean"] is not None),
+            (
+                e
+                for e in entries
+                if e["robot"] == robot and e["final_task_loss"]["mean"] is not None and not e["not_a_result"]
+            ),
             key=lambda e: e["final_task_loss"]["mean"],
         )
+        not_results = [e["label"] for e in entries if e["robot"] == robot and e["not_a_result"]]
         if not ranked:
+            if not_results:
+                best[robot] = {
+                    "label": None,
+                    "compared": 0,
+                    "overlaps_runner_up": False,
+                    "no_interval": [],
+                    "not_results": not_results,
+                }
             continue
         # Only the best and the runner-up are compared; a label without an interval (one seed)
         # makes the comparison impossible to judge, not a win.
@@ -180,6 +239,8 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
             "compared": len(ranked),
             "overlaps_runner_up": bool(overlaps),
             "no_interval": no_interval if len(ranked) > 1 else [],
+            # (only when there are some: the common case keeps its four keys)
+            **({"not_results": not_results} if not_results else {}),
         }
     return {
         "source": str(source),
@@ -201,12 +262,12 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     }
 
 
-def _run_labels(runs, groups):
+def _run_labels(runs: list[Run], groups: list[Group]) -> list[tuple[Run, str]]:
     label_of = {id(run): group.label for group in groups for run in group.runs}
     return [(run, label_of[id(run)]) for run in runs if id(run) in label_of]
 
 
-def _table1_markdown(rows: list[dict]) -> str:
+def _table1_markdown(rows: list[dict[str, Any]]) -> str:
     lines = [
         "# Table 1: change of the task objective after retraining plus one optimization step",
         "",
@@ -233,7 +294,7 @@ def _table1_markdown(rows: list[dict]) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def _write_table1(rows: list[dict], out: pathlib.Path) -> list[pathlib.Path]:
+def _write_table1(rows: list[dict[str, Any]], out: pathlib.Path) -> list[pathlib.Path]:
     (out / "table1.md").write_text(_table1_markdown(rows))
     with open(out / "table1.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=["robot", "label", "retrain", "mean", "std", "n"])
@@ -245,7 +306,7 @@ def _write_table1(rows: list[dict], out: pathlib.Path) -> list[pathlib.Path]:
     return [out / "table1.md", out / "table1.csv"]
 
 
-def summary_markdown(summary: dict) -> str:
+def summary_markdown(summary: dict[str, Any]) -> str:
     """The human-readable summary of a report."""
     level = f"{summary['level']:.0%}"
     lines = [
@@ -276,28 +337,43 @@ def summary_markdown(summary: dict) -> str:
     for e in summary["groups"]:
         final = e["final_task_loss"]
         half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else " (one seed, no CI)"
-        lines.append(
-            f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | "
-            f"{format_number(final['mean'])}{half} |"
-        )
+        value = f"{format_number(final['mean'])}{half}"
+        if e.get("not_a_result"):
+            value = f"**not a result**: {e['not_a_result']}"
+        lines.append(f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | {value} |")
+    windows = {e[f"last{FINAL_WINDOW}_task_loss"].get("iterations", FINAL_WINDOW) for e in summary["groups"]}
+    over = f"its last {windows.pop()} iterations" if len(windows) == 1 else "its last iterations (n below)"
     lines += [
         "",
-        f"## Final task loss, each seed's mean over its last {FINAL_WINDOW} iterations",
+        f"## Final task loss, each seed's mean over {over}",
         "",
-        f"| robot | label | mean ± {level} CI half-width | best seed | worst seed | per seed |",
-        "|---|---|---|---|---|---|",
+        f"| robot | label | iterations | mean ± {level} CI half-width | best seed | worst seed | per seed |",
+        "|---|---|---:|---|---|---|---|",
     ]
     for e in summary["groups"]:
         window = e[f"last{FINAL_WINDOW}_task_loss"]
+        per_seed = ", ".join(format_number(v) for v in window["per_seed"])
+        n = window.get("iterations", FINAL_WINDOW)
+        if e.get("not_a_result"):
+            lines.append(f"| {e['robot']} | {e['label']} | {n} | **not a result** | — | — | {per_seed} |")
+            continue
         half = "" if window["half_width"] is None else f" ± {format_number(window['half_width'])}"
         lines.append(
-            f"| {e['robot']} | {e['label']} | {format_number(window['mean'])}{half} | "
-            f"{format_number(window['best'])} | {format_number(window['worst'])} | "
-            f"{', '.join(format_number(v) for v in window['per_seed'])} |"
+            f"| {e['robot']} | {e['label']} | {n} | {format_number(window['mean'])}{half} | "
+            f"{format_number(window['best'])} | {format_number(window['worst'])} | {per_seed} |"
         )
     lines += ["", "## Best label", ""]
     for robot, best in summary["best"].items():
         unjudged = unjudged_reason(best)
+        not_results = best.get("not_results") or []
+        if best["label"] is None:
+            lines.append(
+                f"- {robot}: no result: the task loss of every label ({', '.join(not_results)}) "
+                f"never left round-off."
+            )
+            continue
+        if not_results:
+            lines.append(f"- {robot}: not compared, never left round-off: {', '.join(not_results)}.")
         if best["compared"] < 2:
             lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
         elif unjudged:
@@ -321,7 +397,9 @@ def summary_markdown(summary: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(source, out=None, level: float = 0.9) -> Report:
+def write_report(
+    source: str | os.PathLike[str], out: str | os.PathLike[str] | None = None, level: float = 0.9
+) -> Report:
     """Read every run under `source` and write the report into `out` (default: `source`).
 
     Writes `task_loss.png`, `components.png` (if a task has several terms), `recon_loss.png` (if
