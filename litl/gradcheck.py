@@ -27,6 +27,7 @@ import sys
 import numpy as np
 
 from litl.errors import UserError
+from litl.roundoff import hardly_moved
 
 GROUPS = ("controller", "design", "initial velocity", "initial position")
 
@@ -61,8 +62,6 @@ def relative_error(analytic: float, numeric: float) -> float:
 
 
 EPS = (1e-3, 1e-4, 1e-5, 1e-6)
-# A task loss below this after the rollout: the robot has not moved enough to check anything.
-STILL = 1e-9
 
 
 def check_gradients(
@@ -132,7 +131,8 @@ def check_gradients(
                 f"the rollout's task loss is {float(value)}: the simulation "
                 f"is unhealthy at these settings, nothing to check"
             )
-        if abs(float(value)) < STILL:
+        # The report's rule too (litl.roundoff): a robot that has hardly moved is not checkable.
+        if hardly_moved(float(value), np.float64):
             raise GradcheckError(
                 f"the task loss is {float(value):.3g} after {steps} steps: the robot has hardly "
                 f"moved, so its derivatives are at the level of round-off and no difference "

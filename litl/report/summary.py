@@ -137,7 +137,8 @@ def _round_off(group: Group, source: pathlib.Path) -> dict[str, Any]:
             ]
             finite = [float(v) for v in losses if isinstance(v, (int, float))]
             if hardly_moved(finite, dtype):
-                still.append(f"{_relative(run.path, source)} seed {seed}")
+                where = _relative(run.path, source)
+                still.append(f"seed {seed}" if where == "." else f"{where} seed {seed}")
     return {"seeds": still, "threshold": max(thresholds)}
 
 
