@@ -23,14 +23,26 @@ _flags = os.environ.get("XLA_FLAGS", "")
 if "xla_backend_optimization_level" not in _flags:
     os.environ["XLA_FLAGS"] = f"{_flags} --xla_backend_optimization_level=0".strip()
 
+# litl before JAX starts: importing it asks XLA for deterministic GPU computations (litl.backend).
 import jax  # noqa: E402
 import pytest  # noqa: E402
+
+import litl.backend  # noqa: E402
 
 jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
 jax.config.update(
     "jax_persistent_cache_min_compile_time_secs",
     float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]),
 )
+
+
+@pytest.fixture
+def deterministic():
+    """For a test whose claim is bit-identity (a rerun, a resume, the same program twice): XLA
+    computes deterministically on a CPU always, on a GPU only in litl's deterministic mode (the
+    default; `LITL_DETERMINISM=off` turns it off, and then the test is skipped, not failed)."""
+    if jax.default_backend() != "cpu" and litl.backend.mode() != "on":
+        pytest.skip("bit-identity needs deterministic GPU computations: unset LITL_DETERMINISM=off")
 
 
 @pytest.fixture

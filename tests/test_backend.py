@@ -14,6 +14,9 @@ from litl.backend import DeterminismError, configure, requested_mode
 from litl.loop.run import run
 from tests.loop.tiny import tiny_config, tiny_robot
 
+# Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
+pytestmark = pytest.mark.gpu
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 FLAG = "--xla_gpu_deterministic_ops"
 

@@ -24,7 +24,9 @@ def test_replay_reproduces_the_recorded_final_and_best_losses(finished_run, tmp_
     final = json.loads((finished_run / "final.json").read_text())
     for seed in (0, 1):
         summary = replay(finished_run, seed=seed, out=tmp_path / f"seed{seed}.gif")
-        assert summary["task_loss"] == summary["recorded_loss"] == final[seed]["task_loss"]
+        # The replay is another program than the run's (one seed, not vmapped): to float32 rounding.
+        assert summary["recorded_loss"] == final[seed]["task_loss"]
+        assert summary["task_loss"] == pytest.approx(summary["recorded_loss"], rel=1e-5, abs=1e-8)
         assert summary["steps"] == summary["run_steps"] == 40
         assert summary["components"]["distance"] == pytest.approx(-summary["task_loss"], abs=1e-6)
     best = replay(finished_run, seed=1, which="best", out=tmp_path / "best.gif")

@@ -66,7 +66,8 @@ def lines(path):
 
 
 @pytest.mark.slow
-def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd):
+@pytest.mark.gpu
+def test_resume_skips_a_damaged_newest_checkpoint_and_ends_identical(tmp_path, capfd, deterministic):
     # Checkpoints hold the whole loop state whatever the observer: k-means compiles fastest.
     config = tiny_config(loop={"episodes": 2}, seeds=1, observer={"kind": "kmeans"})
     directory = tmp_path / "damaged"

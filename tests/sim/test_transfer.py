@@ -7,6 +7,9 @@ import pytest
 
 from litl.sim import linalg, transfer
 
+# Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
+pytestmark = pytest.mark.gpu
+
 SHAPE = (12, 10)
 
 
