@@ -1,6 +1,6 @@
 """The documentation site builds with warnings as errors: the guide (docs/guide/), the dated results
 (docs/results/) and the API reference from the docstrings, with a page for the simulator, robots,
-observers, loop, CLI and report (docs/api/)."""
+observers, loop, CLI and report (docs/api/), and the contributing page (docs/contributing.md)."""
 
 import pathlib
 import subprocess
@@ -44,6 +44,7 @@ def test_the_docs_build_without_warnings(tmp_path):
         for source in (ROOT / "docs" / section).glob("*.md"):
             name = "" if source.stem == "index" else source.stem
             assert (tmp_path / "site" / section / name / "index.html").exists(), source
+    assert (tmp_path / "site" / "contributing" / "index.html").exists()
     home = (tmp_path / "site" / "index.html").read_text()
     for section in ("Guide", "Results", "API"):
         assert section in home, section

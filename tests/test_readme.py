@@ -1,21 +1,34 @@
 """Each Python example of the README and the guide (docs/guide/*.md) runs as written, on its own,
-and shows what it claims; the README stays a front page with the two commands.
+and shows what it claims; the README stays a front page with the two commands; the commands of
+the contributing page (docs/contributing.md) run.
 
 `python -m litl` itself: tests/test_cli.py.
 """
 
+import os
 import pathlib
 import re
+import shlex
+import subprocess
+import sys
 
 import jax.numpy as jnp
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-PAGES = [README, *sorted((ROOT / "docs" / "guide").glob("*.md"))]
-# (page, block) for every ```python block of the README and the guide pages.
+CONTRIBUTING = ROOT / "docs" / "contributing.md"
+PAGES = [README, *sorted((ROOT / "docs" / "guide").glob("*.md")), CONTRIBUTING]
+# (page, block) for every ```python block of the README, the guide and the contributing page.
 BLOCKS = [
     (page, block) for page in PAGES for block in re.findall(r"```python\n(.*?)```", page.read_text(), re.S)
+]
+# Every command of the contributing page's ```bash blocks, its comment cut.
+COMMANDS = [
+    line.split("  #")[0].strip()
+    for block in re.findall(r"```bash\n(.*?)```", CONTRIBUTING.read_text(), re.S)
+    for line in block.splitlines()
+    if line.strip()
 ]
 
 
@@ -61,6 +74,32 @@ def test_readme_is_a_front_page_with_the_two_commands():
         after = text.split(marker, 1)[1].lstrip()
         assert after.startswith("```bash\n"), marker
         assert after.split("\n")[1].endswith(command), marker
+
+
+def test_the_contributing_page_commands_run():
+    """The checks run as written and pass. A pytest command collects its tests (the suite cannot
+    run inside itself); a benchmark parses its options with --help (running one takes minutes)."""
+    python = ".venv/bin/python "
+    kinds = set()
+    # A clean environment for the inner pytest: none of this run's pytest/xdist variables.
+    env = {key: value for key, value in os.environ.items() if not key.startswith("PYTEST_")}
+    for command in COMMANDS:
+        assert command.startswith(python), f"{CONTRIBUTING.name}: run from the .venv: {command}"
+        args = shlex.split(command[len(python) :])
+        if args[:2] == ["-m", "pytest"]:
+            kinds.add("tests")
+            args += ["--collect-only", "-p", "no:cacheprovider"]
+        elif args[0].startswith("benchmarks/"):
+            kinds.add("benchmarks")
+            args = [args[0], "--help"]
+        else:
+            assert args[:2] in (["-m", "ruff"], ["-m", "mypy"]), f"a command without a rule: {command}"
+            kinds.add("checks")
+        done = subprocess.run(
+            [sys.executable, *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600
+        )
+        assert done.returncode == 0, f"{command}\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    assert kinds == {"checks", "tests", "benchmarks"}, kinds
 
 
 def test_readme_and_guide_links_point_at_files():
