@@ -19,6 +19,8 @@ import contextlib
 import sys
 import threading
 import time
+from collections.abc import Iterator
+from typing import TextIO
 
 import numpy as np
 
@@ -34,7 +36,7 @@ def set_label(label: str) -> None:
     _LABEL = label
 
 
-def say(message: str, stream=None) -> None:
+def say(message: str, stream: TextIO | None = None) -> None:
     """Print one labelled line to stderr."""
     stream = stream or sys.stderr
     stream.write(f"{_LABEL}{message}\n")
@@ -44,7 +46,7 @@ def say(message: str, stream=None) -> None:
 class Progress:
     """Redraws one status line on a terminal; prints one line per episode otherwise (logs)."""
 
-    def __init__(self, episodes: int, iterations: int, enabled: bool = True, stream=None):
+    def __init__(self, episodes: int, iterations: int, enabled: bool = True, stream: TextIO | None = None):
         self.episodes, self.iterations = episodes, iterations
         self.stream = stream or sys.stderr
         self.enabled = enabled
@@ -52,7 +54,7 @@ class Progress:
         self.start = time.perf_counter()
         self._epoch = {"epoch": 0, "validation": float("nan")}
 
-    def on_epoch(self, epoch, validation) -> None:
+    def on_epoch(self, epoch: np.ndarray, validation: np.ndarray) -> None:
         """A learning epoch ended (called from inside the compiled phase, `make_algorithm`'s
         on_epoch): (epoch, validation loss), one entry per seed."""
         latest = self._epoch
@@ -87,7 +89,7 @@ class Progress:
             self._write(line, newline=True)
 
     @contextlib.contextmanager
-    def learning(self, episode: int):
+    def learning(self, episode: int) -> Iterator[None]:
         """Around a learning phase: on a terminal the line shows the epoch and validation loss as
         they come (`on_epoch`) and a ticking clock; in logs one line when it ends."""
         if not self.enabled:
@@ -97,14 +99,14 @@ class Progress:
         done = threading.Event()
         latest = self._epoch = {"epoch": 0, "validation": float("nan")}
 
-        def line():
+        def line() -> str:
             return (
                 f"episode {episode + 1}/{self.episodes} learning phase: epoch "
                 f"{latest['epoch']}, validation loss {format_number(latest['validation'])} "
                 f"({time.perf_counter() - start:.1f} s; run {time.perf_counter() - self.start:.0f} s)"
             )
 
-        def tick():
+        def tick() -> None:
             while not done.wait(0.25):
                 self._write(line(), newline=False)
 

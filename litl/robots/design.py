@@ -20,6 +20,7 @@ import math
 
 import jax.numpy as jnp
 import numpy as np
+from jax.typing import ArrayLike, DTypeLike
 
 from litl.sim import ConfigError, Design
 
@@ -47,7 +48,7 @@ class Material:
     density: float = 1.0
     actuator_strength: float = 3.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "youngs_modulus_bounds", tuple(self.youngs_modulus_bounds))
         if len(self.youngs_modulus_bounds) != 2:
             raise ConfigError(
@@ -79,7 +80,7 @@ class Material:
         """The time step for grid spacing dx: `TARGET_CFL` for the stiffest allowed design, with
         dt / dx rounded down to two significant digits."""
         ratio = TARGET_CFL / self.max_wave_speed()
-        scale = 10 ** (1 - math.floor(math.log10(ratio)))
+        scale: float = 10 ** (1 - math.floor(math.log10(ratio)))
         return math.floor(ratio * scale) / scale * dx
 
 
@@ -104,20 +105,20 @@ class DesignSpace:
         """(E_min, E_max) of every entry of φ."""
         return self.material.youngs_modulus_bounds
 
-    def initial(self, dtype=jnp.float32) -> jnp.ndarray:
+    def initial(self, dtype: DTypeLike = jnp.float32) -> jnp.ndarray:
         """(R,) φ0: the material's Young's modulus in every region."""
         return self.uniform(self.material.youngs_modulus, dtype)
 
-    def uniform(self, youngs_modulus: float, dtype=jnp.float32) -> jnp.ndarray:
+    def uniform(self, youngs_modulus: float, dtype: DTypeLike = jnp.float32) -> jnp.ndarray:
         """(R,) the same Young's modulus in every region (e.g. a bound: the stiffest design)."""
         return jnp.full((self.n_regions,), youngs_modulus, dtype)
 
-    def project(self, design_variables):
+    def project(self, design_variables: ArrayLike) -> jnp.ndarray:
         """Clip φ (R,) into the bounds (the paper's projection step)."""
         low, high = self.bounds
         return jnp.clip(design_variables, low, high)
 
-    def to_design(self, design_variables=None, dtype=None) -> Design:
+    def to_design(self, design_variables: ArrayLike | None = None, dtype: DTypeLike | None = None) -> Design:
         """The simulator's per-particle `Design` for φ (R,) (None: φ0); jittable and
         differentiable in φ."""
         if design_variables is None:

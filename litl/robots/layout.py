@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from litl.errors import UserError
 
@@ -39,14 +40,14 @@ class Layout:
     pinned: np.ndarray
     groups: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         positions = np.asarray(self.positions, np.float64)
         if positions.ndim != 2 or positions.shape[1] not in (2, 3):
             raise LayoutError(f"positions must be (n, 2) or (n, 3), got shape {positions.shape}")
         n, d = positions.shape
         if n == 0:
             raise LayoutError("the robot has no particles")
-        fields = {
+        fields: dict[str, tuple[np.ndarray, tuple[int, ...]]] = {
             "volume": (np.asarray(self.volume, np.float64), (n,)),
             "actuator": (np.asarray(self.actuator, np.int32), (n,)),
             "region": (np.asarray(self.region, np.int32), (n,)),
@@ -90,7 +91,7 @@ class Layout:
 
     @property
     def dim(self) -> int:
-        return self.positions.shape[1]
+        return int(self.positions.shape[1])
 
     @property
     def n_actuators(self) -> int:
@@ -104,7 +105,7 @@ class Layout:
         """Lower and upper corner (d,) of the particles' bounding box."""
         return self.positions.min(axis=0), self.positions.max(axis=0)
 
-    def translated(self, offset) -> Layout:
+    def translated(self, offset: ArrayLike) -> Layout:
         """The same layout moved by `offset` (d,)."""
         return dataclasses.replace(self, positions=self.positions + np.asarray(offset, np.float64))
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Sequence
 from typing import Literal
 
 from litl.errors import UserError
@@ -48,7 +49,7 @@ class Wall:
     kind: WallKind = "sticky"
     friction: float = 0.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in WALL_KINDS:
             raise ConfigError(f"unknown wall kind {self.kind!r}; choose one of {WALL_KINDS}")
         if not (self.friction >= 0.0 and math.isfinite(self.friction)):
@@ -83,7 +84,7 @@ class Boundary:
         floor: Wall | WallKind = "sticky",
         sides: Wall | WallKind = "sticky",
         thickness: int = 3,
-        pinned_boxes=(),
+        pinned_boxes: Iterable[Corners] = (),
     ) -> Boundary:
         """A closed box: `floor` on the low face of axis 1, `sides` on every other face."""
         floor = floor if isinstance(floor, Wall) else Wall(floor)
@@ -92,7 +93,7 @@ class Boundary:
         walls[2] = floor
         return cls(walls=tuple(walls), thickness=thickness, pinned_boxes=_as_boxes(pinned_boxes))
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "walls", tuple(self.walls))
         object.__setattr__(self, "pinned_boxes", _as_boxes(self.pinned_boxes))
         if not all(isinstance(w, Wall) for w in self.walls):
@@ -101,7 +102,11 @@ class Boundary:
             raise ConfigError(f"wall thickness must be an integer >= 1 cell, got {self.thickness!r}")
 
 
-def _as_boxes(boxes):
+# A pinned box as given: (lower corner, upper corner) in domain coordinates.
+Corners = tuple[Sequence[float], Sequence[float]]
+
+
+def _as_boxes(boxes: Iterable[Corners]) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
     return tuple((tuple(float(v) for v in lo), tuple(float(v) for v in hi)) for lo, hi in boxes)
 
 
@@ -140,7 +145,7 @@ class SimConfig:
     mass_epsilon: float = 1e-10
     buffering: Buffering = "auto"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
         object.__setattr__(self, "gravity", tuple(float(g) for g in self.gravity))
         dim = len(self.grid_shape)
@@ -165,18 +170,16 @@ class SimConfig:
             )
         if self.buffering not in BUFFERINGS:
             raise ConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
-        if self.boundary is None:
-            object.__setattr__(self, "boundary", Boundary.box(dim))
-        if len(self.boundary.walls) != 2 * dim:
+        boundary = Boundary.box(dim) if self.boundary is None else self.boundary
+        object.__setattr__(self, "boundary", boundary)
+        if len(boundary.walls) != 2 * dim:
             raise ConfigError(
                 f"a {dim}D boundary needs {2 * dim} walls (low and high face of each axis), "
-                f"got {len(self.boundary.walls)}"
+                f"got {len(boundary.walls)}"
             )
-        if 2 * self.boundary.thickness + 3 > min(self.grid_shape):
-            raise ConfigError(
-                f"wall thickness {self.boundary.thickness} leaves no room in grid {self.grid_shape}"
-            )
-        for lo, hi in self.boundary.pinned_boxes:
+        if 2 * boundary.thickness + 3 > min(self.grid_shape):
+            raise ConfigError(f"wall thickness {boundary.thickness} leaves no room in grid {self.grid_shape}")
+        for lo, hi in boundary.pinned_boxes:
             if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi, strict=True)):
                 raise ConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
 
