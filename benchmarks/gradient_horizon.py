@@ -27,6 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 
 def trained_state(observer: str, episodes: int, iterations: int, dx: float):
     """(robot, config, one seed's LoopState) after a short run."""

@@ -33,11 +33,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import time
 
 from fresh_process import measure_in_fresh_process
+
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
 
 RESOLUTIONS = {"demo": 1 / 64, "paper": 1 / 128}
 
@@ -124,6 +127,8 @@ def measure(
             "platform": device.platform,
             "device_kind": device.device_kind,
             "device_count": jax.device_count(),
+            "determinism": litl.backend.mode(),
+            "xla_flags": os.environ.get("XLA_FLAGS", ""),
         },
     }
 

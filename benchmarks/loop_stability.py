@@ -29,6 +29,8 @@ import pathlib
 import statistics
 import time
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 
 def run_observer(
     observer: str, out: pathlib.Path, seeds: int, episodes: int, iterations: int, overrides: list[str]

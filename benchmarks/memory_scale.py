@@ -68,6 +68,8 @@ import time
 import numpy as np
 from fresh_process import measure_in_fresh_process
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 
 def _compile(function, argument):
     """(compiled `function` at `argument`, compile seconds, XLA's temporary bytes or None)."""

@@ -34,6 +34,8 @@ import sys
 
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 
 def load_buffer(run_dir: pathlib.Path):
     """(fields (n, *window, d), velocities (n, d), algorithm, observer params of seed 0) of a run

@@ -103,6 +103,8 @@ import time
 
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 VARIANTS = ("window", "at_add", "segment_sum_sorted", "one_hot", "one_hot_separable", "no_scatter")
 SIZES = ("biped64", "block128", "quadruped32", "quadruped64")
 QUICK_SIZES = ("biped64", "quadruped16")

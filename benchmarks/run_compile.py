@@ -32,6 +32,8 @@ import time
 
 from fresh_process import measure_in_fresh_process
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 # Programs the run builds itself (the rest are eager operations compiled one by one).
 RUN_PROGRAMS = ("optimize", "bootstrap", "fill", "learn_seeds", "evaluate", "reconstruct")
 

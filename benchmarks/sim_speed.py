@@ -38,6 +38,8 @@ import time
 
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 SCENES = ("walker2d", "quadruped3d", "walker2d_vmap10", "block3d_1m")
 # Run on a CPU when --scenes is not given (elsewhere: all), leaving out the throughput scene.
 CPU_SCENES = ("walker2d", "quadruped3d", "walker2d_vmap10")
@@ -218,6 +220,8 @@ def device_info() -> dict:
         "platform": device.platform,
         "device_kind": device.device_kind,
         "device_count": jax.device_count(),
+        "determinism": litl.backend.mode(),
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),
     }
 
 

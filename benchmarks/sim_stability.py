@@ -29,6 +29,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 
 def controllers(count: int, seed: int = 0):
     # The trained gait lives with its regression test; the repository root makes it importable.

@@ -32,6 +32,8 @@ import time
 
 import numpy as np
 
+import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
+
 SIZES = {"2d32": (32, 32), "2d64": (64, 64), "3d32": (32, 32, 32), "3d16": (16, 16, 16)}
 IMPLEMENTATIONS = ("xla", "matmul")
 BATCH = 8

@@ -27,6 +27,9 @@ import warnings
 from litl.errors import UserError
 
 SWITCH = "LITL_DETERMINISM"
+# Where litl notes the flag it added to XLA_FLAGS: a child process inherits both, and its own
+# LITL_DETERMINISM then decides (litl's addition is not the user's word).
+ADDED = "LITL_XLA_FLAG_ADDED"
 MODES = ("on", "off")
 XLA_FLAG = "--xla_gpu_deterministic_ops"
 # jaxlib versions whose CUDA float32 scatter-add is a compare-and-swap loop (jax-ml/jax#38806).
@@ -57,7 +60,7 @@ def requested_mode(environ=None) -> tuple[str, str]:
             f"{SWITCH}={switch!r} is not a mode litl knows: use {SWITCH}=on (deterministic GPU "
             f"computations, the default) or {SWITCH}=off (XLA's faster, run-to-run varying ones)."
         )
-    from_flags = _mode_in_xla_flags(environ.get("XLA_FLAGS", ""))
+    from_flags = _mode_in_xla_flags(_users_flags(environ))
     if switch is None:
         return (from_flags, "XLA_FLAGS") if from_flags else ("on", "default")
     switch = switch.strip().lower()
@@ -82,6 +85,18 @@ def _mode_in_xla_flags(xla_flags: str) -> str | None:
     raise DeterminismError(f"XLA_FLAGS sets {XLA_FLAG}={value!r}: XLA expects true or false.")
 
 
+def _users_flags(environ) -> str:
+    """XLA_FLAGS without the flag litl added to them (in this or a parent process)."""
+    flags = environ.get("XLA_FLAGS", "").split()
+    added = environ.get(ADDED)
+    if added and added in flags:
+        del flags[len(flags) - 1 - flags[::-1].index(added)]
+    return " ".join(flags)
+
+
+_configured: str | None = None
+
+
 def configure(environ=None) -> str:
     """Set XLA_FLAGS for the requested mode (called by `import litl`); returns the mode.
 
@@ -89,19 +104,27 @@ def configure(environ=None) -> str:
     flag they set); in mode "off" adds nothing. Warns when JAX's GPU backend already started
     without the flag, since XLA reads its flags only once.
     """
+    global _configured
     environ = os.environ if environ is None else environ
-    mode, source = requested_mode(environ)
-    flags = environ.get("XLA_FLAGS", "")
-    if mode == "on" and source != "XLA_FLAGS" and _mode_in_xla_flags(flags) is None:
+    mode, _ = requested_mode(environ)
+    had_flag = XLA_FLAG in environ.get("XLA_FLAGS", "")
+    flags = _users_flags(environ)
+    environ.pop(ADDED, None)
+    if mode == "on" and _mode_in_xla_flags(flags) is None:
         environ["XLA_FLAGS"] = f"{flags} {XLA_FLAG}=true".strip()
-        if _gpu_backend_started():
-            warnings.warn(
-                "JAX's GPU backend started before litl was imported, so XLA did not see "
-                f"{XLA_FLAG}=true and this process's GPU computations are not deterministic. "
-                "Import litl before the first JAX computation (or restart the kernel), or set "
-                f"XLA_FLAGS={XLA_FLAG}=true yourself.",
-                stacklevel=3,
-            )
+        environ[ADDED] = f"{XLA_FLAG}=true"
+    elif flags or "XLA_FLAGS" in environ:
+        environ["XLA_FLAGS"] = flags
+    if environ is os.environ:
+        _configured = mode
+    if mode == "on" and not had_flag and _gpu_backend_started():
+        warnings.warn(
+            "JAX's GPU backend started before litl was imported, so XLA did not see "
+            f"{XLA_FLAG}=true and this process's GPU computations are not deterministic. "
+            "Import litl before the first JAX computation (or restart the kernel), or set "
+            f"XLA_FLAGS={XLA_FLAG}=true yourself.",
+            stacklevel=3,
+        )
     return mode
 
 
@@ -115,8 +138,9 @@ def _gpu_backend_started() -> bool:
 
 
 def mode() -> str:
-    """The determinism mode of this process: "on" or "off" (as `configure` set it)."""
-    return requested_mode()[0]
+    """The determinism mode of this process: "on" or "off", as `import litl` set it (XLA reads its
+    flags once, so a later change of the environment does not change it)."""
+    return _configured if _configured is not None else requested_mode()[0]
 
 
 def record() -> dict:

@@ -66,6 +66,20 @@ def test_configure_adds_the_flag_to_the_users_flags_and_never_removes_one():
     assert environ["XLA_FLAGS"] == f"{FLAG}=true"
 
 
+def test_a_child_process_decides_its_own_mode_over_the_flag_its_parent_litl_added():
+    parent = {"XLA_FLAGS": "--xla_dump_to=/tmp/x"}
+    configure(parent)
+    child = {**parent, "LITL_DETERMINISM": "off"}
+    assert configure(child) == "off"
+    assert child["XLA_FLAGS"] == "--xla_dump_to=/tmp/x" and "LITL_XLA_FLAG_ADDED" not in child
+    back_on = {**child, "LITL_DETERMINISM": "on"}
+    assert configure(back_on) == "on"
+    assert back_on["XLA_FLAGS"] == f"--xla_dump_to=/tmp/x {FLAG}=true"
+    # The user's own flag is their word: the same flag without litl's note still contradicts.
+    with pytest.raises(DeterminismError, match="contradicts"):
+        configure({"XLA_FLAGS": f"{FLAG}=true", "LITL_DETERMINISM": "off"})
+
+
 def test_import_litl_asks_for_determinism_before_jax_starts():
     # This process imported litl (conftest's flags kept): XLA saw the flag when JAX started.
     assert f"{FLAG}=true" in os.environ["XLA_FLAGS"]
@@ -102,8 +116,7 @@ def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so
     assert FLAG in recorded["xla_flags"]
 
     capfd.readouterr()
-    monkeypatch.setenv("LITL_DETERMINISM", "off")
-    monkeypatch.setenv("XLA_FLAGS", "")
+    monkeypatch.setattr(backend, "_configured", "off")  # as a process started with LITL_DETERMINISM=off
     run(tiny_robot(), config, tmp_path, progress=False)
     err = capfd.readouterr().err
     assert "was started with determinism on and is resumed with determinism off" in err
