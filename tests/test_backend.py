@@ -5,6 +5,7 @@ import os
 import pathlib
 import subprocess
 import sys
+import warnings
 
 import pytest
 
@@ -124,3 +125,31 @@ def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so
     settings = json.loads((tmp_path / "run.json").read_text())
     assert settings["backend"]["determinism"] == "on"  # what it started with stays
     assert [r["determinism"] for r in settings["resumed_on"]] == ["off"]
+
+
+class _FakeDevice:
+    device_kind = "NVIDIA H100 80GB HBM3"
+    platform = "gpu"
+
+
+@pytest.mark.parametrize(
+    ("version", "warns"), [("0.10.2", True), ("0.11.0", True), ("0.11.1", False), ("0.10.1", False)]
+)
+def test_a_cuda_jaxlib_with_the_slow_scatter_warns_once_naming_the_fix(monkeypatch, version, warns):
+    import jax
+    import jaxlib
+
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    monkeypatch.setattr(jax, "devices", lambda: [_FakeDevice()])
+    monkeypatch.setattr(jaxlib, "__version__", version)
+    monkeypatch.setattr(backend, "_warned_slow_scatter", False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        backend.warn_if_slow_gpu_scatter()
+        backend.warn_if_slow_gpu_scatter()
+    messages = [str(w.message) for w in caught]
+    if warns:
+        assert len(messages) == 1
+        assert f"jaxlib {version}" in messages[0] and 'pip install -U "jax[cuda12]>=0.11.1"' in messages[0]
+    else:
+        assert messages == []
