@@ -23,7 +23,7 @@ from omegaconf import OmegaConf
 
 from litl.app import run_experiment
 from litl.config import from_hydra, register_with_hydra, translate_overrides
-from litl.errors import UserError
+from litl.errors import UserError, exit_on_user_error
 from litl.loop.progress import say, set_label
 from litl.loop.run import RunDirectoryError
 
@@ -32,29 +32,28 @@ register_with_hydra()
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def _main(cfg) -> None:
-    try:
-        hydra_config = HydraConfig.get()
-        # Hydra's record of the job (its own writing is off: hydra.output_subdir is null), written
-        # once this process owns the run directory, so a second run on it changes nothing.
-        config_files = {
-            ".hydra/config.yaml": OmegaConf.to_yaml(cfg),
-            ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
-            ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task)),
-        }
-        if hydra_config.mode == RunMode.MULTIRUN:
-            # Jobs of a sweep may run at once (joblib): each line says whose it is (Hydra's
-            # launch lines give each job number's overrides).
-            set_label(f"[job {hydra_config.job.num}] ")
-        run_experiment(from_hydra(cfg), hydra_config.runtime.output_dir, config_files)
-    except UserError as error:
-        # A setting or a run directory litl cannot use: the message says which and what to do;
-        # a traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
-        if not isinstance(error, RunDirectoryError):  # (that directory is another run's)
-            _remove_if_unused(pathlib.Path(HydraConfig.get().runtime.output_dir))
-        if os.environ.get("HYDRA_FULL_ERROR") == "1":
+    hydra_config = HydraConfig.get()
+    # A setting or a run directory litl cannot use: the message says which and what to do; a
+    # traceback would only hide it (HYDRA_FULL_ERROR=1 still gets one).
+    with exit_on_user_error("litl", keep_traceback=os.environ.get("HYDRA_FULL_ERROR") == "1", write=say):
+        try:
+            # Hydra's record of the job (its own writing is off: hydra.output_subdir is null),
+            # written once this process owns the run directory, so a second run on it changes
+            # nothing.
+            config_files = {
+                ".hydra/config.yaml": OmegaConf.to_yaml(cfg),
+                ".hydra/hydra.yaml": OmegaConf.to_yaml({"hydra": hydra_config}),
+                ".hydra/overrides.yaml": OmegaConf.to_yaml(list(hydra_config.overrides.task)),
+            }
+            if hydra_config.mode == RunMode.MULTIRUN:
+                # Jobs of a sweep may run at once (joblib): each line says whose it is (Hydra's
+                # launch lines give each job number's overrides).
+                set_label(f"[job {hydra_config.job.num}] ")
+            run_experiment(from_hydra(cfg), hydra_config.runtime.output_dir, config_files)
+        except UserError as error:
+            if not isinstance(error, RunDirectoryError):  # (that directory is another run's)
+                _remove_if_unused(pathlib.Path(hydra_config.runtime.output_dir))
             raise
-        say(f"litl: error: {error}")
-        sys.exit(2)
 
 
 def _remove_if_unused(run_dir: pathlib.Path) -> None:

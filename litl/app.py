@@ -35,18 +35,32 @@ from litl.robots.tasks import Locomotion, Task
 
 
 def compose(overrides: Sequence[str] = ()) -> Config:
-    """Compose the config like the CLI does (for notebooks and tests): `Config`, checked."""
+    """Compose the config like the CLI does (for notebooks and tests): `Config`, checked.
+
+    Raises:
+      SettingsError: an override Hydra refuses (an unknown key, group option or value, with
+        the message `python -m litl` prints) or a value `Config` refuses.
+    """
     import warnings
 
     from hydra import compose as hydra_compose
     from hydra import initialize_config_module
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
 
     register_with_hydra()
     overrides, messages = translate_overrides(overrides)
     for message in messages:
         warnings.warn(message, FutureWarning, stacklevel=2)
-    with initialize_config_module("litl.conf", version_base="1.3"):
-        cfg = hydra_compose("config", overrides=overrides)
+    try:
+        with initialize_config_module("litl.conf", version_base="1.3"):
+            cfg = hydra_compose("config", overrides=overrides)
+    except HydraException as error:
+        # As Hydra's command line words it: its message, then the OmegaConf error behind it
+        # (``Key 'episods' not in 'LoopConfig'``).
+        cause = error.__cause__
+        detail = f"\n{cause}" if isinstance(cause, OmegaConfBaseException) else ""
+        raise SettingsError(f"{error}{detail}") from error
     return from_hydra(cfg)
 
 

@@ -26,7 +26,7 @@ import sys
 
 import numpy as np
 
-from litl.errors import UserError
+from litl.errors import UserError, exit_on_user_error
 from litl.roundoff import hardly_moved
 
 GROUPS = ("controller", "design", "initial velocity", "initial position")
@@ -202,17 +202,13 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the check; returns 0 when every relative error is at most --rtol, else 1 (bad input:
     exit status 2 and a one-line message)."""
-    from hydra.errors import HydraException
-
     from litl.app import compose
 
     parser = _parser()
     args = parser.parse_args(argv)
-    try:
+    with exit_on_user_error(parser.prog):
         config = compose(args.overrides)
         checks, value = check_gradients(config, args.steps, args.eps, args.directions, args.seed)
-    except (UserError, HydraException) as error:  # HydraException: robot=<no such config>
-        parser.exit(2, f"{parser.prog}: error: {error}\n")
     print(
         f"litl.gradcheck: {config.robot.name}, observer {config.observer.kind}, controller "
         f"{config.controller.kind}, {args.steps} steps, float64; task loss {value:.6g}"

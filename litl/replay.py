@@ -25,7 +25,7 @@ import sys
 from typing import Any, cast
 
 from litl.config import Config, from_dict, upgrade
-from litl.errors import UserError
+from litl.errors import UserError, exit_on_user_error
 
 
 class ReplayError(UserError, ValueError):
@@ -237,6 +237,7 @@ def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Replay a run; returns 0 (bad input: exit status 2 and a one-line message)."""
     parser = argparse.ArgumentParser(
         prog="python -m litl.replay",
         description="Simulate a trained robot from a run directory again and write its "
@@ -272,13 +273,10 @@ def main(argv: list[str] | None = None) -> int:
         help="also write <out>_gait.png and the feet's lifts and slip (walkers)",
     )
     args = parser.parse_args(argv)
-    try:
+    with exit_on_user_error("litl.replay"):
         summary = replay(
             args.run_dir, args.seed, args.steps, args.out, args.which, args.color, args.stride, args.gait
         )
-    except UserError as error:
-        print(f"litl.replay: error: {error}", file=sys.stderr)
-        return 2
     recorded = summary["recorded_loss"]
     same = (
         ""

@@ -164,7 +164,7 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("robot=bipd", "Could not find 'robot/bipd'"),
         ("observer=vea", "Could not find 'observer/vea'"),
         ("observer.kind=vea", "observer.kind='vea': unknown observer"),
-        ("seeds=0", "litl: error: seeds=0: must be a positive integer"),
+        ("seeds=0", "^seeds=0: must be a positive integer"),
         ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
         ("controller.kind=mpl", "Invalid value 'mpl', expected one of \\[mlp, sinusoid\\]"),
         ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
@@ -177,12 +177,32 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("experiment=fig9", "Could not find 'experiment/fig9'"),
     ],
 )
-def test_bad_settings_fail_early_with_a_clear_message(tmp_path, override, message):
-    done = litl_command([override, "+scale=smoke"], tmp_path, timeout=300)
-    assert done.returncode != 0
-    import re
+def test_bad_settings_fail_early_with_a_clear_message(override, message):
+    """What `python -m litl` checks before it runs anything (`run_experiment`: compose, the
+    robot, the observer), in process: a `UserError` with the message the CLI prints. The CLI's
+    own ways out (exit status, one line, no traceback, no directory left) are checked below."""
+    from litl.app import build_robot, check_observer, compose
+    from litl.errors import UserError
 
-    assert re.search(message, done.stderr), done.stderr[-2000:]
+    with pytest.raises(UserError, match=message):
+        config = compose([override, "+scale=smoke"])
+        build_robot(config)
+        check_observer(config)
+
+
+@pytest.mark.parametrize(
+    "override, message, status",
+    [
+        # litl's own check: one line, exit status 2, the run directory Hydra made removed again.
+        ("seeds=0", "^litl: error: seeds=0: must be a positive integer$", 2),
+        # Hydra's: its message, before any directory is made.
+        ("robot=bipd", "^In 'config': Could not find 'robot/bipd'$", 1),
+    ],
+)
+def test_bad_settings_on_the_command_line_exit_with_one_clear_message(tmp_path, override, message, status):
+    done = litl_command([override, "+scale=smoke"], tmp_path, timeout=300)
+    assert done.returncode == status
+    assert re.search(message, done.stderr, re.M), done.stderr[-2000:]
     assert "Traceback" not in done.stderr, done.stderr[-2000:]
     assert not (tmp_path / "outputs").exists()  # a failed start leaves no empty directory
     assert not list(tmp_path.rglob("metrics.jsonl"))

@@ -78,10 +78,12 @@ def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_pa
     ],
 )
 def test_bad_requests_fail_clearly(finished_run, tmp_path, capsys, arguments, message):
-    assert main([str(finished_run), *arguments]) == 2
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(finished_run), *arguments])
+    assert exit_info.value.code == 2
     import re
 
-    assert re.search(message, capsys.readouterr().err)
+    assert re.search(f"^litl.replay: error: .*{message}", capsys.readouterr().err, re.M)
 
 
 def test_a_directory_that_is_not_a_finished_run_is_refused(tmp_path):

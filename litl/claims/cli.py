@@ -18,7 +18,7 @@ from litl.claims.tables import (
     write_csv,
 )
 from litl.config import Config
-from litl.errors import UserError
+from litl.errors import exit_on_user_error
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -74,10 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     command = " ".join(["python -m litl.claims", *map(shlex.quote, sys.argv[1:] if argv is None else argv)])
-    try:
+    with exit_on_user_error(parser.prog, os_errors=True):  # OSError: --out is the user's
         return _main(args, command)
-    except (UserError, OSError) as error:
-        parser.exit(2, f"{parser.prog}: error: {error}\n")
 
 
 def _main(args: argparse.Namespace, command: str) -> int:

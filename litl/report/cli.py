@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from litl.errors import UserError
+from litl.errors import exit_on_user_error
 from litl.formatting import format_number
 from litl.report.summary import unjudged_reason, write_report
 
@@ -29,11 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns 0, or exits with status 2 and a one-line message on bad input."""
     parser = _parser()
     args = parser.parse_args(argv)
-    try:
+    # Bad input (or an unreadable DIR, an unwritable --out) is the user's to fix: a message, not
+    # a traceback.
+    with exit_on_user_error(parser.prog, os_errors=True):
         report = write_report(args.dir, args.out, args.level)
-    except (UserError, OSError) as error:
-        # Bad input (or an unwritable --out) is the user's to fix: a message, not a traceback.
-        parser.exit(2, f"{parser.prog}: error: {error}\n")
     print(report.summary_path)
     groups = report.summary["groups"]
     width = max(len(f"{g['robot']} / {g['label']}") for g in groups)
