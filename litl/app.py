@@ -32,6 +32,7 @@ from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
+from litl.stuck import seed_ends, shown
 
 
 def compose(overrides: Sequence[str] = ()) -> Config:
@@ -162,7 +163,21 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
                 stride=config.output.animation_stride,
                 progress=config.output.progress,
             )
-    final = [r["task_loss"] for r in result.metrics[-config.seeds :]]
-    shown = ", ".join("n/a" if v is None else f"{v + 0.0:.6g}" for v in final)  # no "-0.0"
-    say(f"litl: final task loss per seed [{shown}]; results in {run_dir}")
+    # A seed whose last iterations were skipped reports its last good loss, marked (litl.stuck).
+    ends = seed_ends(result.metrics)
+    seeds = [config.seed + s for s in range(config.seeds)]
+    shown_losses = ", ".join(shown(ends[seed]) if seed in ends else "n/a" for seed in seeds)
+    say(f"litl: final task loss per seed [{shown_losses}]; results in {run_dir}")
+    for seed in seeds:
+        end = ends.get(seed)
+        if end is not None and end.stuck:
+            last = (
+                "it never had a finite task loss"
+                if end.last_good_step is None
+                else f"its loss is that of iteration {end.last_good_step}, its last good one"
+            )
+            say(
+                f"litl: seed {seed} ended stuck at its last good parameters (its last "
+                f"{end.skipped_at_end} iteration(s) were skipped); {last}"
+            )
     return result

@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from litl.claims.cuts import CUT, falling, with_cuts
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
 from litl.claims.verdicts import ALPHA, CLAIMS, Estimate, Verdict, judge, retraining_effects, with_holm
 from litl.config import Config
@@ -41,6 +42,24 @@ CSV_FIELDS = (
     "test_p",
     "holm_p",
     "holm_verdict",
+    # Seeds that ended stuck, counted with their last good loss (litl.stuck).
+    "a_stuck",
+    "b_stuck",
+    # The cut check (litl.claims.cuts): the verdict at the cut, and the slopes at the end.
+    "iterations",
+    "cut_iterations",
+    "cut_verdict",
+    "cut_holm_verdict",
+    "cut_changed",
+    "tail_iterations",
+    "a_slope",
+    "a_slope_low",
+    "a_slope_high",
+    "a_still_falling",
+    "b_slope",
+    "b_slope_low",
+    "b_slope_high",
+    "b_still_falling",
 )
 
 # The paper's appendix (its hyperparameters) was not available: method=paper is litl's reading of
@@ -75,11 +94,15 @@ def load_groups(
     return groups, unfinished
 
 
-def verdicts(groups: Groups, methods: Sequence[str], level: float = 0.9) -> list[Verdict]:
+def verdicts(
+    groups: Groups, methods: Sequence[str], level: float = 0.9, cut: float | None = CUT
+) -> list[Verdict]:
     """Every claim whose panel was run, under every method asked for, with Holm-adjusted p over
-    all of them (the table's family of tests)."""
+    all of them (the table's family of tests), and each judged again at the `cut` (a fraction
+    of the iterations; None: no cut check) with its curves' slopes at the end
+    (`litl.claims.cuts.with_cuts`)."""
     panels = {panel for _, panel in groups}
-    return with_holm(
+    results = with_holm(
         [
             judge(claim, method, groups.get((method, claim.panel), {}), level)
             for method in methods
@@ -87,12 +110,36 @@ def verdicts(groups: Groups, methods: Sequence[str], level: float = 0.9) -> list
             if claim.panel in panels
         ]
     )
+    return results if cut is None else with_cuts(results, groups, level, cut)
 
 
 def _cells(estimate: Estimate | None) -> list[float | str]:
     if estimate is None:
         return ["", "", "", 0]
     return [estimate.mean, estimate.low, estimate.high, estimate.n]
+
+
+def _cut_cells(v: Verdict) -> list[float | str | int | bool]:
+    """The cut check's CSV cells (empty without one)."""
+    if v.cut is None:
+        return [""] * 14
+    cut = v.cut
+    slopes: list[float | str | int | bool] = []
+    for side, estimate in (("a", cut.a_slope), ("b", cut.b_slope)):
+        slopes += (
+            ["", "", "", ""]
+            if estimate is None
+            else [estimate.mean, estimate.low, estimate.high, side in cut.still_falling]
+        )
+    return [
+        cut.total,
+        cut.iterations,
+        cut.verdict,
+        cut.holm_verdict,
+        cut.changed(v),
+        cut.tail,
+        *slopes,
+    ]
 
 
 def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
@@ -117,6 +164,9 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
                 v.test_p,
                 v.holm_p,
                 v.holm_verdict,
+                "" if v.a is None else v.a.stuck,
+                "" if v.b is None else v.b.stuck,
+                *_cut_cells(v),
             ]
             writer.writerow(["" if isinstance(x, float) and not math.isfinite(x) else x for x in row])
     return path
@@ -125,11 +175,12 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
 def _interval(estimate: Estimate | None) -> str:
     if estimate is None or not math.isfinite(estimate.mean):
         return "—"
+    stuck = f", {estimate.stuck} stuck" if estimate.stuck else ""
     if estimate.n < 2:
-        return f"{format_number(estimate.mean)} (n={estimate.n})"
+        return f"{format_number(estimate.mean)} (n={estimate.n}{stuck})"
     return (
         f"{format_number(estimate.mean)} [{format_number(estimate.low)}, "
-        f"{format_number(estimate.high)}] (n={estimate.n})"
+        f"{format_number(estimate.high)}] (n={estimate.n}{stuck})"
     )
 
 
@@ -161,14 +212,29 @@ def claims_markdown(
     ]
     for v in results:
         caveat = " (†)" if v.method == "paper" else ""
+        flag = " (‡)" if _flagged(v) else ""
         lines.append(
             f"| {v.claim.statement} | {v.method} | {v.claim.a} | {_interval(v.a)} | "
             f"{v.claim.b or 'progress/episode'} | {_interval(v.b)} | "
-            f"{format_number(v.p, '.3g')} | **{v.verdict}**{caveat} | "
+            f"{format_number(v.p, '.3g')} | **{v.verdict}**{caveat}{flag} | "
             f"{format_number(v.holm_p, '.3g')} | {v.holm_verdict}{caveat} |"
         )
     if any(v.method == "paper" for v in results):
         lines += ["", f"(†) {PAPER_CAVEAT}"]
+    if any(_flagged(v) for v in results):
+        lines += [
+            "",
+            "(‡) The verdict depends on where the runs were cut: it changes between the cut and "
+            "the end, or a compared curve was still falling at the end (see below).",
+        ]
+    if any(e is not None and e.stuck for v in results for e in (v.a, v.b)):
+        lines += [
+            "",
+            "*k stuck*: k of the n seeds ended stuck at their last good parameters (their last "
+            "iterations were skipped); each counts with its last good iterations (its mean over "
+            "the 10 iterations up to its last good one).",
+        ]
+    lines += _cut_section(results, level)
     lines += ["", "## Rules", ""]
     for claim_id, rule in dict.fromkeys((v.claim.id, v.rule) for v in results):
         lines.append(f"- `{claim_id}`: {rule}")
@@ -194,6 +260,58 @@ def claims_markdown(
             f"last process; see timings.json).",
         ]
     return "\n".join(lines) + "\n"
+
+
+def _flagged(v: Verdict) -> bool:
+    """Whether a verdict depends on where its runs were cut (`litl.claims.cuts`)."""
+    return v.cut is not None and (v.cut.changed(v) or bool(v.cut.still_falling))
+
+
+def _slope(estimate: Estimate | None) -> str:
+    if estimate is None:
+        return "—"
+    text = _interval(estimate).replace(" (n=", " per iteration (n=")
+    return f"**{text}, still falling**" if falling(estimate) else text
+
+
+def _cut_section(results: list[Verdict], level: float) -> list[str]:
+    """The cut check's table: each verdict at the end and at the cut, and the slopes of its
+    curves over the last iterations."""
+    checked = [v for v in results if v.cut is not None]
+    if not checked:
+        return []
+    fractions = {f"{v.cut.fraction:.0%}" for v in checked if v.cut is not None}
+    tails = {v.cut.tail for v in checked if v.cut is not None and v.cut.tail}
+    tail = f"its last {tails.pop()} iterations" if len(tails) == 1 else "its last iterations"
+    lines = [
+        "",
+        "## Where the runs were cut",
+        "",
+        f"Each claim judged again by the same rules on the runs' first {' / '.join(sorted(fractions))} "
+        f"of iterations (a seed's final task loss then being its mean over the last 10 before "
+        f"the cut; Holm over the cut's tests), and the slope of each compared task-loss curve "
+        f"over {tail}: per seed the least-squares slope, then the mean over seeds with its "
+        f"{level:.0%} interval. **changed**: the verdict, or the verdict after Holm, differs "
+        f"between the cut and the end. **still falling**: the slope's interval lies below 0, so "
+        f"the curve had not settled. The cut is the same run at an earlier iteration, not a "
+        f"shorter run (under method=litl the step sizes decay over the whole run).",
+        "",
+        "| claim | method | iterations | verdict (after Holm) | at the cut | verdict at the cut (after Holm) "
+        "| a: slope [CI] | b: slope [CI] | depends on the cut |",
+        "|---|---|---:|---|---:|---|---|---|---|",
+    ]
+    for v in checked:
+        cut = v.cut
+        assert cut is not None
+        flags = (["**changed**"] if cut.changed(v) else []) + [
+            f"**{v.claim.a if side == 'a' else v.claim.b} still falling**" for side in cut.still_falling
+        ]
+        lines.append(
+            f"| {v.claim.statement} | {v.method} | {cut.total} | {v.verdict} ({v.holm_verdict}) | "
+            f"{cut.iterations} | {cut.verdict} ({cut.holm_verdict}) | {_slope(cut.a_slope)} | "
+            f"{_slope(cut.b_slope)} | {', '.join(flags) or 'no'} |"
+        )
+    return lines
 
 
 def table1_markdown(groups: Groups, methods: Sequence[str]) -> str:

@@ -19,18 +19,27 @@ the same 5% tail on each side as the paper's 90% intervals):
 A table of claims makes many such tests at once, so each verdict also gets a Holm-adjusted p
 (`with_holm`): Holm-Bonferroni over the family of one-sided tests in the table, one per claim and
 method (the test its verdict rests on), and the verdict that survives the correction.
+
+A seed that ended stuck (its last iterations skipped: `litl.stuck`) counts with its last good
+iterations (the window up to its last good one), and each side says how many did
+(`Estimate.stuck`). Whether a verdict depends on where its runs were cut, or rests on curves
+still falling at the end: `litl.claims.cuts`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from litl.report.runs import Group
-from litl.report.stats import confidence_band, final_window_values
+from litl.report.stats import confidence_band, final_window_values, series_ends
+
+if TYPE_CHECKING:
+    from litl.claims.cuts import CutCheck
 
 ALPHA = 0.05
 MARGIN = 0.1
@@ -170,12 +179,14 @@ def welch_p_lower(a: ArrayLike, b: ArrayLike) -> float:
 
 @dataclasses.dataclass(frozen=True)
 class Estimate:
-    """A mean over seeds with its two-sided interval."""
+    """A mean over seeds with its two-sided interval; `stuck`: how many of the `n` seeds ended
+    stuck and count with their last good loss (`litl.stuck`)."""
 
     mean: float
     low: float
     high: float
     n: int
+    stuck: int = 0
 
 
 def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
@@ -185,8 +196,19 @@ def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
 
 
 def final_losses(group: Group) -> np.ndarray:
-    """(seeds,) each seed's final task loss (mean of its last FINAL_WINDOW iterations)."""
+    """(seeds,) each seed's final task loss (mean of its last FINAL_WINDOW iterations; for a seed
+    that ended stuck, of those up to its last good one: `litl.stuck`)."""
     return final_window_values(group, "task_loss", FINAL_WINDOW)
+
+
+def stuck_seeds(group: Group) -> int:
+    """How many seeds of `group` ended stuck (their last iterations skipped) and still have a
+    final task loss (their last good one)."""
+    finals = final_losses(group)
+    return sum(
+        end.stuck and bool(np.isfinite(final))
+        for (_, end), final in zip(series_ends(group), finals, strict=True)
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,6 +228,8 @@ class Verdict:
         NOT_RESOLVED; for a "competitive" claim always the test of a being worse (its HOLDS
         rests on a margin, not a test). NaN: no test.
       holm_p: `test_p` Holm-adjusted over a table's family of tests (NaN until `with_holm`).
+      cut: the same claim judged at an earlier cut of its runs, and whether their curves were
+        still falling at the end (`litl.claims.cuts.CutCheck`; None until `with_cuts`).
     """
 
     claim: Claim
@@ -217,6 +241,7 @@ class Verdict:
     rule: str
     test_p: float = math.nan
     holm_p: float = math.nan
+    cut: CutCheck | None = None
 
     @property
     def holm_verdict(self) -> str:
@@ -337,7 +362,12 @@ def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.
         result = _retraining(claim, groups[claim.a], level)
     else:
         assert claim.b is not None  # a comparison names both sides
-        result = _compare(claim, final_losses(groups[claim.a]), final_losses(groups[claim.b]), level)
+        a_group, b_group = groups[claim.a], groups[claim.b]
+        a, b, p, verdict, rule, test_p = _compare(claim, final_losses(a_group), final_losses(b_group), level)
+        # Seeds that ended stuck count with their last good loss; the table says how many.
+        a = dataclasses.replace(a, stuck=stuck_seeds(a_group))
+        b = dataclasses.replace(b, stuck=stuck_seeds(b_group))
+        result = (a, b, p, verdict, rule, test_p)
     return Verdict(claim, method, *result)
 
 

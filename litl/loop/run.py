@@ -13,7 +13,8 @@ writes into the run directory:
   reconstruction loss after each epoch: the paper's Fig. 5);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
 * `final/`: the final parameters of every seed (controller, design, observer), and `final.json`
-  their task loss per seed (a forward simulation after the last update);
+  their task loss per seed (a forward simulation after the last update); a seed whose last
+  iterations were skipped is marked stuck and has its last good task loss there (`litl.stuck`);
 * `best/` and `best.json`: the parameters of each seed's best rollout, its task loss and iteration.
 
 An iteration whose rollout blew up, lost particles or gave a non-finite loss or gradient changes
@@ -51,6 +52,7 @@ from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snap
 from litl.loop.progress import Progress, say
 from litl.loop.replay_buffer import newest
 from litl.robots.robot import Robot
+from litl.stuck import seed_ends
 
 # Iterations skipped in a row after which a seed is reported as failing.
 MANY_SKIPS = 5
@@ -251,7 +253,7 @@ def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episo
     if episodes == loop.episodes:
         _save_final(run_dir / "final", state)
         _save_best(run_dir, state, shell.seeds)
-        _save_final_losses(run_dir, shell.evaluate(state), shell.seeds)
+        _save_final_losses(run_dir, shell.evaluate(state), shell.seeds, shell.records)
     return RunResult(run_dir=run_dir, state=jax.tree.map(np.asarray, state), metrics=shell.records)
 
 
@@ -575,11 +577,30 @@ def _save_best(run_dir: pathlib.Path, state: LoopState, seeds):
     (run_dir / "best.json").write_text(json.dumps(summary, indent=1))
 
 
-def _save_final_losses(run_dir: pathlib.Path, losses, seeds):
+def _save_final_losses(run_dir: pathlib.Path, losses, seeds, records):
     """final.json: the task loss of each seed's final parameters (one more forward simulation;
-    `python -m litl.replay` reproduces it)."""
+    `python -m litl.replay` reproduces it). A seed whose last iterations were skipped is stuck
+    (`litl.stuck`): its task_loss is its last good one, with ``"stuck": true``,
+    skipped_at_end, last_good_step and final_parameters_loss (what the forward simulation of
+    its final parameters gave; null: not finite). The other seeds' entries are as they were."""
     losses = np.asarray(losses)
-    summary = [{"seed": seed, "task_loss": _json_value(losses[s])} for s, seed in enumerate(seeds)]
+    ends = seed_ends(records)
+    summary = []
+    for s, seed in enumerate(seeds):
+        end = ends.get(seed)
+        if end is None or not end.stuck:
+            summary.append({"seed": seed, "task_loss": _json_value(losses[s])})
+            continue
+        summary.append(
+            {
+                "seed": seed,
+                "task_loss": end.task_loss,
+                "stuck": True,
+                "skipped_at_end": end.skipped_at_end,
+                "last_good_step": end.last_good_step,
+                "final_parameters_loss": _json_value(losses[s]),
+            }
+        )
     (run_dir / "final.json").write_text(json.dumps(summary, indent=1))
 
 

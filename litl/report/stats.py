@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 from scipy.special import stdtrit
 
 from litl.report.runs import Group
+from litl.stuck import SeedEnd, seed_end
 
 
 def t_quantile(probability: float, dof: ArrayLike) -> np.ndarray:
@@ -89,30 +90,56 @@ def series(group: Group, key: str = "task_loss") -> tuple[np.ndarray, np.ndarray
     return steps, values
 
 
+def series_ends(group: Group) -> list[tuple[int, SeedEnd]]:
+    """How each seed of a group ended (`litl.stuck.SeedEnd`: stuck or not, its last good
+    iteration) with the index of its run in `group.runs`, one per row of `series`, in its order."""
+    rows: dict[tuple[int, int], list[dict[str, Any]]] = {}
+    for index, run in enumerate(group.runs):
+        for record in run.records:
+            rows.setdefault((index, int(record["seed"])), []).append(record)
+    return [
+        (index, seed_end(seed, sorted(rows[(index, seed)], key=lambda r: int(r["step"]))))
+        for index, seed in sorted(rows)
+    ]
+
+
 def final_values(group: Group, key: str = "task_loss") -> np.ndarray:
-    """(n_series,) each seed's value at its last recorded step (NaN if missing there).
+    """(n_series,) each seed's value at its last recorded step (NaN if missing there); for a
+    seed that ended stuck (`litl.stuck`: its last iterations skipped), at its last good step.
 
     Rows are ordered as in `series`.
     """
-    last: dict[tuple[int, int], tuple[int, float]] = {}
+    values: dict[tuple[int, int], dict[int, float]] = {}
     for index, run in enumerate(group.runs):
         for record in run.records:
-            series_key, step = (index, int(record["seed"])), int(record["step"])
-            if series_key not in last or step >= last[series_key][0]:
-                last[series_key] = (step, _value(record, key))
-    return np.array([last[k][1] for k in sorted(last)], np.float64)
+            values.setdefault((index, int(record["seed"])), {})[int(record["step"])] = _value(record, key)
+    final = []
+    for series_key, (_, end) in zip(sorted(values), series_ends(group), strict=True):
+        at = values[series_key]
+        step = (end.last_good_step if end.stuck else max(at)) if at else None
+        final.append(math.nan if step is None else at[step])
+    return np.array(final, np.float64)
 
 
 def final_window_values(group: Group, key: str = "task_loss", last: int = 10) -> np.ndarray:
-    """(n_series,) each seed's mean over its last `last` iterations (skipped ones left out).
+    """(n_series,) each seed's mean over its last `last` iterations (skipped ones left out); for
+    a seed that ended stuck (`litl.stuck`), over the `last` iterations up to its last good one.
 
     Less noisy than the last iteration alone; NaN for a seed with no finite value there. Rows
     are ordered as in `series`.
     """
     if isinstance(last, bool) or not isinstance(last, int) or last < 1:
         raise ValueError(f"last must be a positive number of iterations, got {last!r}")
-    _, values = series(group, key)
+    steps, values = series(group, key)
     tail = values[:, -last:]
+    column = {int(step): t for t, step in enumerate(steps)}
+    for row, (_, end) in enumerate(series_ends(group)):
+        if end.stuck:
+            # The window ends at its last good iteration (all NaN if it never had one).
+            stop = column[end.last_good_step] + 1 if end.last_good_step is not None else 0
+            window = values[row, max(0, stop - last) : stop].copy()
+            tail[row] = np.nan
+            tail[row, : len(window)] = window
     finite = np.isfinite(tail)
     with np.errstate(invalid="ignore"):
         return np.where(

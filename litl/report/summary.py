@@ -22,6 +22,7 @@ from litl.report.stats import (
     final_values,
     final_window_values,
     series,
+    series_ends,
     table1,
 )
 from litl.roundoff import hardly_moved, threshold
@@ -110,6 +111,35 @@ def _health_notes(group: Group, source: pathlib.Path) -> list[str]:
     return notes
 
 
+def _stuck(group: Group, source: pathlib.Path) -> tuple[list[dict[str, Any]], list[str]]:
+    """The seeds of `group` that ended stuck (`litl.stuck`: their last iterations skipped),
+    with `per_seed_index` their place in `per_seed`, and a note for each."""
+    stuck, notes = [], []
+    for row, (index, end) in enumerate(series_ends(group)):
+        if not end.stuck:
+            continue
+        where = _relative(group.runs[index].path, source)
+        stuck.append(
+            {
+                "run": where,
+                "seed": end.seed,
+                "skipped_at_end": end.skipped_at_end,
+                "last_good_step": end.last_good_step,
+                "per_seed_index": row,
+            }
+        )
+        result = (
+            "it never had a finite task loss"
+            if end.last_good_step is None
+            else f"its final task loss is its last good one, up to iteration {end.last_good_step}"
+        )
+        notes.append(
+            f"{group.robot} / {group.label}: {where} seed {end.seed} ended stuck at its last good "
+            f"parameters (its last {end.skipped_at_end} iteration(s) were skipped); {result}"
+        )
+    return stuck, notes
+
+
 def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[str]:
     notes = []
     missing = int(np.isnan(values).sum())
@@ -146,7 +176,9 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
 
     Each group's final task loss has its mean and Student-t interval at `level` (low, high,
-    half_width: None with fewer than two seeds). `best` names, per robot, the label with the
+    half_width: None with fewer than two seeds); a seed that ended stuck (`litl.stuck`) counts
+    with its last good loss and is listed in the group's `stuck` (absent when none is). `best`
+    names, per robot, the label with the
     lowest mean final task loss: `compared` (labels with a final task loss),
     `overlaps_runner_up` (its interval overlaps the runner-up's) and `no_interval` (which of
     the two have no interval; then the difference cannot be judged, see `unjudged_reason`).
@@ -167,6 +199,7 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
         window_mean, window_low, window_high = confidence_band(window, level)
         finite_window = window[np.isfinite(window)]
         round_off = _round_off(group, source)
+        stuck, stuck_notes = _stuck(group, source)
         not_a_result = None
         if round_off["seeds"] and len(round_off["seeds"]) == group.n_seeds:
             not_a_result = (
@@ -198,6 +231,8 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
                     "best": _number(finite_window.min()) if finite_window.size else None,
                     "worst": _number(finite_window.max()) if finite_window.size else None,
                 },
+                # (only when there are some: a run that never sticks keeps its keys)
+                **({"stuck": stuck} if stuck else {}),
             }
         )
         if group.n_seeds < 2:
@@ -205,7 +240,7 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
                 f"{group.robot} / {group.label}: one seed only, so its curves have no "
                 f"confidence band (the band needs at least 2 seeds)"
             )
-        notes += _health_notes(group, source) + _missing_notes(group, steps, values)
+        notes += _health_notes(group, source) + stuck_notes + _missing_notes(group, steps, values)
     best = {}
     for robot in dict.fromkeys(e["robot"] for e in entries):
         ranked = sorted(
@@ -339,6 +374,8 @@ def summary_markdown(summary: dict[str, Any]) -> str:
         final = e["final_task_loss"]
         half = f" ± {format_number(final['half_width'])}" if final["n"] > 1 else " (one seed, no CI)"
         value = f"{format_number(final['mean'])}{half}"
+        if e.get("stuck"):
+            value += f"; {len(e['stuck'])} seed(s) stuck: their last good loss"
         if e.get("not_a_result"):
             value = f"**not a result**: {e['not_a_result']}"
         lines.append(f"| {e['robot']} | {e['label']} | {e['seeds']} | {e['iterations']} | {value} |")
@@ -353,7 +390,11 @@ def summary_markdown(summary: dict[str, Any]) -> str:
     ]
     for e in summary["groups"]:
         window = e[f"last{FINAL_WINDOW}_task_loss"]
-        per_seed = ", ".join(format_number(v) for v in window["per_seed"])
+        stuck_rows = {s["per_seed_index"] for s in e.get("stuck", [])}
+        per_seed = ", ".join(
+            format_number(v) + (" (stuck)" if i in stuck_rows else "")
+            for i, v in enumerate(window["per_seed"])
+        )
         n = window.get("iterations", FINAL_WINDOW)
         if e.get("not_a_result"):
             lines.append(f"| {e['robot']} | {e['label']} | {n} | **not a result** | — | — | {per_seed} |")
