@@ -94,7 +94,7 @@ def build_robot(config: Config) -> Robot:
 def _with_material(robot: Robot, material: MaterialConfig) -> Robot:
     """The robot with the command line's material changes, its dt following the stiffest
     allowed design (errors name the robot.material keys as typed)."""
-    from litl.sim import ConfigError
+    from litl.sim import SimConfigError
 
     given = ", ".join(
         f"robot.material.{f.name}={getattr(material, f.name)}"
@@ -103,7 +103,7 @@ def _with_material(robot: Robot, material: MaterialConfig) -> Robot:
     )
     try:
         return robot.with_material(dataclasses.replace(robot.material, **material.changes()))
-    except ConfigError as error:
+    except SimConfigError as error:
         raise SettingsError(
             f"{given}: {error} ({robot.name}'s own material: {robot.material})", "robot.material"
         ) from None

@@ -423,11 +423,12 @@ class ControllerConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class SimSettings(_Checked):
-    """The rollouts' length, float type and memory.
+class RolloutConfig(_Checked):
+    """The rollouts' length, float type and memory: the `sim.*` keys. (The simulator's own
+    configuration, grid, dt, gravity and walls, is `litl.sim.SimConfig`, which a robot brings.)
 
     Attributes:
-      steps: steps per rollout (None: the robot's episode length).
+      steps: steps per rollout (None: the robot's own rollout length, `Robot.steps`).
       dtype: float type of the run (float64 needs `jax.enable_x64`).
       checkpoint_every: "auto" (segment checkpointing only where the backward pass would not
         fit `memory_budget`, with segments of about √steps steps), K (always, K steps), or None
@@ -458,6 +459,10 @@ class SimSettings(_Checked):
         if self.memory_budget is None:
             return None
         return int(self.memory_budget * 2**30 / rollouts)
+
+
+# The name before issue 39 (it read like the simulator's `SimConfig`): kept, the API documented it.
+SimSettings = RolloutConfig
 
 
 @dataclass(frozen=True)
@@ -636,7 +641,7 @@ class Config(_Checked):
     task: TaskConfig = field(default_factory=TaskConfig)
     observer: ObserverConfig = field(default_factory=ObserverConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
-    sim: SimSettings = field(default_factory=SimSettings)
+    sim: RolloutConfig = field(default_factory=RolloutConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
     experiment: ExperimentConfig = field(default_factory=ExperimentConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
@@ -710,9 +715,12 @@ def method_changes(method: str | Method) -> dict[str, Any]:
     return yaml.safe_load(text) or {}
 
 
+# The old spellings of settings, in two tables because they are two namespaces: dotted keys that
+# moved since this module was written, and the flat layout of run.json files from before it.
+#
 # Keys that moved, by their old dotted name. The old spellings are still accepted, with a
 # warning, on the command line (`translate_overrides`), in `Config.replace` and in older
-# run.json files (`upgrade`).
+# run.json files (`upgrade`, `recorded_settings`).
 MOVED_KEYS = {
     "observer.latent_dim": "observer.vae.latent_dim",
     "observer.window": "observer.vae.window",
@@ -732,6 +740,63 @@ MOVED_KEYS = {
     "loop.replay": "loop.replay_buffer",
     "loop.replay_capacity": "loop.buffer_capacity",
 }
+
+
+# run.json files written before this module (before 2026-11-23) kept the run's settings in one
+# flat "loop" object; where each of its keys lives now. They are no keys of today's command line
+# (`observer=` there picks a group, not `observer.kind`), so only `recorded_settings` reads them.
+FLAT_RUN_KEYS = {
+    "episodes": "loop.episodes",
+    "iterations": "loop.iterations",
+    "steps": "sim.steps",
+    "dtype": "sim.dtype",
+    "observer": "observer.kind",
+    "latent_dim": "observer.vae.latent_dim",
+    "window": "observer.vae.window",
+    "channels": "observer.vae.channels",
+    "activation": "observer.vae.activation",
+    "clusters": "observer.kmeans.clusters",
+    "controller": "controller.kind",
+    "controller_widths": "controller.mlp.widths",
+    "controller_omega": "controller.sinusoid.omega",
+    "controller_period": "controller.mlp.period",
+    "feature_gradient": "controller.mlp.feature_gradient",
+    "learning_rate": "controller.learning_rate",
+    "design_learning_rate": "loop.design_learning_rate",
+    "gradient_clip": "loop.safeguards.gradient_clip",
+    "snapshot_stride": "loop.snapshot_stride",
+    "replay_capacity": "loop.buffer_capacity",
+    "alpha": "loop.alpha",
+    "replay": "loop.replay_buffer",
+    "codesign": "loop.codesign",
+    "learning": "loop.learning",
+    "seeds": "seeds",
+    "seed": "seed",
+}
+
+
+def current_key(key: str) -> str:
+    """Where a setting lives now, under any spelling a run.json may hold: a moved dotted key
+    (`MOVED_KEYS`), a key of the flat layout (`FLAT_RUN_KEYS`) or today's."""
+    return FLAT_RUN_KEYS.get(key) or MOVED_KEYS.get(key, key)
+
+
+def recorded_settings(saved: dict[str, Any]) -> dict[str, Any]:
+    """A parsed run.json's settings by today's dotted key (``"loop.alpha"``), as
+    `Config.run_settings` names them; older layouts translated, and a run recorded before
+    methods were named started from litl's."""
+    if isinstance(saved.get("config"), dict):
+        flat = flatten(saved["config"])
+    else:
+        legacy: dict[str, Any] = dict(saved.get("loop", {}))
+        one_shot = legacy.pop("one_shot", False)
+        simultaneous = legacy.pop("simultaneous", False)
+        schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
+        moved = {FLAT_RUN_KEYS.get(key, key): value for key, value in legacy.items()}
+        flat = {**flatten(moved), "loop.schedule": schedule}
+    flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
+    flat.setdefault("method", Method.litl.value)
+    return flat
 
 
 def moved_message(old: str) -> str:
@@ -810,7 +875,7 @@ def _dataclass_of(annotation: object) -> type[_Checked] | None:
         ControllerConfig,
         MLPConfig,
         SinusoidConfig,
-        SimSettings,
+        RolloutConfig,
         LoopConfig,
         SafeguardsConfig,
         LearningConfig,

@@ -129,6 +129,30 @@ def test_an_older_run_json_reads_under_the_new_keys():
     assert all(new.split(".")[0] == old_key.split(".")[0] for old_key, new in MOVED_KEYS.items())
 
 
+def test_every_old_spelling_leads_to_a_key_of_today():
+    """`MOVED_KEYS` and the flat run.json layout's `FLAT_RUN_KEYS` point straight at today's
+    keys (a setting or a section), never at another old spelling."""
+    from litl.config import FLAT_RUN_KEYS, current_key
+
+    today = set(flatten(json.loads(json.dumps(Config().run_settings()))))
+    sections = {key.rsplit(".", 1)[0] for key in today}
+    for old_key, new in (*MOVED_KEYS.items(), *FLAT_RUN_KEYS.items()):
+        assert new in today or new in sections, (old_key, new)
+        assert current_key(old_key) == new and current_key(new) == new
+    assert not set(MOVED_KEYS) & set(FLAT_RUN_KEYS)  # dotted and flat: two namespaces
+
+
+def test_both_methods_share_the_ablation_switches_the_report_names_runs_by():
+    """The report labels a run by how it departs from `LoopConfig()` in these switches; that is
+    right for either method only while method=paper leaves them alone."""
+    from litl.report.runs import ABLATIONS
+
+    paper = flatten(json.loads(json.dumps(Config.for_method("paper").run_settings())))
+    litl = flatten(json.loads(json.dumps(Config().run_settings())))
+    for key, default, _ in ABLATIONS:
+        assert paper[key] == litl[key] == default, key
+
+
 def test_importing_the_config_imports_neither_jax_nor_the_loop():
     code = (
         "import sys, litl.config; bad = sorted(m for m in sys.modules if m == 'jax' or "
@@ -150,7 +174,7 @@ def test_every_error_a_user_can_meet_has_one_base():
     from litl.report.runs import ReportError
     from litl.robots.catalog import UnknownRobotError
     from litl.robots.layout import LayoutError
-    from litl.sim.config import ConfigError
+    from litl.sim.config import SimConfigError
     from litl.sim.safety import SimulationError
     from litl.viz.robots import VizError
 
@@ -162,7 +186,7 @@ def test_every_error_a_user_can_meet_has_one_base():
         ReportError,
         UnknownRobotError,
         LayoutError,
-        ConfigError,
+        SimConfigError,
         SimulationError,
         VizError,
     ):

@@ -15,12 +15,13 @@ import pathlib
 import re
 from typing import Any
 
-from litl.config import MOVED_KEYS, Config, LoopConfig, Method, flatten
+from litl.config import Config, LoopConfig, Method, current_key, flatten, recorded_settings
 from litl.errors import UserError
 
 _METHOD = LoopConfig()
-# The paper's method: these ablation switches are named in a label only when a run departs from
-# the method's value (`litl.config.LoopConfig`'s default).
+# The ablation switches: named in a run's label only when the run departs from their default
+# (`LoopConfig()`, the default method's, litl's; method=paper sets none of them, so the two
+# methods share these values and a run of either is labelled by the same rule).
 ABLATIONS = (
     # (setting, the method's value, how a run that departs from it is named)
     ("loop.replay_buffer", _METHOD.replay_buffer, lambda value: "no replay"),
@@ -28,37 +29,6 @@ ABLATIONS = (
     ("loop.alpha", _METHOD.alpha, lambda value: f"α={value:g}"),
     ("loop.codesign", _METHOD.codesign, lambda value: "control only"),
 )
-# run.json written before litl.config: the loop's settings in one flat object. Where each of its
-# keys lived then in litl.config (one_shot / simultaneous became loop.schedule); `MOVED_KEYS`
-# says where they live now.
-LEGACY_KEYS = {
-    "episodes": "loop.episodes",
-    "iterations": "loop.iterations",
-    "steps": "sim.steps",
-    "dtype": "sim.dtype",
-    "observer": "observer.kind",
-    "latent_dim": "observer.latent_dim",
-    "window": "observer.window",
-    "channels": "observer.channels",
-    "activation": "observer.activation",
-    "clusters": "observer.clusters",
-    "controller": "controller.kind",
-    "controller_widths": "controller.widths",
-    "controller_omega": "controller.omega",
-    "controller_period": "controller.period",
-    "feature_gradient": "controller.feature_gradient",
-    "learning_rate": "controller.learning_rate",
-    "design_learning_rate": "loop.design_learning_rate",
-    "gradient_clip": "loop.gradient_clip",
-    "snapshot_stride": "loop.snapshot_stride",
-    "replay_capacity": "loop.replay_capacity",
-    "alpha": "loop.alpha",
-    "replay": "loop.replay",
-    "codesign": "loop.codesign",
-    "learning": "loop.learning",
-    "seeds": "seeds",
-    "seed": "seed",
-}
 # What the built-in observers read, for run.json files that predate the settings' sections (they
 # listed single keys, and missed some).
 LEGACY_READS = {
@@ -122,18 +92,7 @@ class Run:
     def config(self) -> dict[str, Any]:
         """The run's settings by dotted key (``"loop.alpha"``, ``"observer.kind"``), as
         `litl.config.Config.run_settings` names them (older run.json files translated)."""
-        if isinstance(self.settings.get("config"), dict):
-            flat = flatten(self.settings["config"])
-        else:
-            legacy: dict[str, Any] = dict(self.settings.get("loop", {}))
-            one_shot = legacy.pop("one_shot", False)
-            simultaneous = legacy.pop("simultaneous", False)
-            schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
-            moved = {LEGACY_KEYS.get(key, key): value for key, value in legacy.items()}
-            flat = {**flatten(moved), "loop.schedule": schedule}
-        flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
-        flat.setdefault("method", Method.litl.value)  # runs from before methods were named
-        return flat
+        return recorded_settings(self.settings)
 
     @property
     def observer(self) -> str:
@@ -163,7 +122,7 @@ class Run:
         known = self.settings.get("observer", {}).get("reads")
         if known is None:
             return LEGACY_READS.get(self.observer, ())  # older run.json
-        moved = tuple(MOVED_KEYS.get(LEGACY_KEYS.get(key, key), LEGACY_KEYS.get(key, key)) for key in known)
+        moved = tuple(current_key(key) for key in known)
         if moved != tuple(known) and self.observer in LEGACY_READS:
             return LEGACY_READS[self.observer]  # older run.json: the observer's sections
         return moved

@@ -3,7 +3,7 @@
 Every robot is defined in physical units (2D domain 1 x 1, 3D domain 2 x 1 x 1, axis 1 up) and
 sampled at a grid spacing `dx` (2 particles per cell per axis). The time step follows dx and the
 material so that the stiffest allowed design keeps the same CFL number (`Material.time_step`), and
-the episode lasts the same simulated time at any resolution: refine dx for paper-scale runs,
+a rollout lasts the same simulated time at any resolution: refine dx for paper-scale runs,
 coarsen it for quick ones.
 """
 
@@ -21,7 +21,7 @@ from litl.robots.image import layout_from_png
 from litl.robots.robot import Material, Robot, place
 from litl.robots.shapes import Box, Ellipse, Extrusion, Part, Polygon, sample_parts
 from litl.robots.tasks import Locomotion, Reach, Task
-from litl.sim import Boundary, ConfigError, SimConfig
+from litl.sim import Boundary, SimConfig, SimConfigError
 
 GRAVITY = 3.8
 UP = (0.0, 1.0)
@@ -57,14 +57,14 @@ def simulation(
     stiffest design `material` allows (`Material.time_step`)."""
     extent = (1.0, 1.0) if dim == 2 else (2.0, 1.0, 1.0)
     if isinstance(dx, bool) or not isinstance(dx, (int, float)) or not 0 < dx <= MAX_DX:
-        raise ConfigError(
+        raise SimConfigError(
             f"dx={dx!r} is not a usable grid spacing: it must be positive and at most 1/16 "
             f"(16 cells across the unit domain; coarser grids cannot hold the robots), e.g. "
             f"robot.dx=0.03125 (1/32), 0.015625 (1/64) or 0.0078125 (1/128)"
         )
     cells = [e / dx for e in extent]
     if any(abs(c - round(c)) > 1e-6 for c in cells):
-        raise ConfigError(
+        raise SimConfigError(
             f"dx={dx!r} must divide the domain {extent} into whole cells, e.g. 1/32, 1/64 or 1/128"
         )
     dt = material.time_step(dx)

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.typing import ArrayLike, DTypeLike
 
-from litl.sim import ConfigError, Design
+from litl.sim import Design, SimConfigError
 
 # Target CFL number of the stiffest allowed material: below the accepted 0.75
 # (`litl.sim.safety.MAX_CFL`; at 0.81 trained gaits blew up). dt / dx is rounded down to two
@@ -51,19 +51,19 @@ class Material:
     def __post_init__(self) -> None:
         object.__setattr__(self, "youngs_modulus_bounds", tuple(self.youngs_modulus_bounds))
         if len(self.youngs_modulus_bounds) != 2:
-            raise ConfigError(
+            raise SimConfigError(
                 f"youngs_modulus_bounds must be (E_min, E_max), got {self.youngs_modulus_bounds}"
             )
         low, high = self.youngs_modulus_bounds
         if not (0 < low <= self.youngs_modulus <= high < np.inf):
-            raise ConfigError(
+            raise SimConfigError(
                 f"need 0 < E_min <= youngs_modulus <= E_max, got E = {self.youngs_modulus}, "
                 f"bounds {self.youngs_modulus_bounds}"
             )
         if not -1 < self.poisson_ratio < 0.5:
-            raise ConfigError(f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio}")
+            raise SimConfigError(f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio}")
         if not (self.density > 0 and np.isfinite(self.actuator_strength)):
-            raise ConfigError(
+            raise SimConfigError(
                 f"density must be > 0 and actuator_strength finite, got "
                 f"{self.density}, {self.actuator_strength}"
             )

@@ -17,9 +17,9 @@ from litl.robots.layout import Layout, LayoutError
 from litl.robots.tasks import Task, make_task_loss
 from litl.sim import (
     Body,
-    ConfigError,
     Design,
     SimConfig,
+    SimConfigError,
     SimState,
     check_actuation,
     check_time_step,
@@ -46,7 +46,8 @@ class Robot:
       config: simulator settings (grid, dx, dt, gravity, walls, material model).
       material: material values and the bounds of the design variables (`Material`).
       task: the default task.
-      steps: default episode length in simulation steps.
+      steps: the rollout length in simulation steps (1 s of simulated time for the catalog's
+        robots); `sim.steps` overrides it. (An episode is one of Algorithm 1's K rounds.)
       description: one paragraph for users: shape, size, actuators, task.
     """
 
@@ -60,9 +61,11 @@ class Robot:
 
     def __post_init__(self):
         if self.layout.dim != self.config.dim:
-            raise ConfigError(f"robot {self.name!r} is {self.layout.dim}D but its grid is {self.config.dim}D")
+            raise SimConfigError(
+                f"robot {self.name!r} is {self.layout.dim}D but its grid is {self.config.dim}D"
+            )
         if not isinstance(self.steps, int) or self.steps <= 0:
-            raise ConfigError(f"steps must be a positive integer, got {self.steps!r}")
+            raise SimConfigError(f"steps must be a positive integer, got {self.steps!r}")
         check_fits(self.layout, self.config, self.name)
         if self.task is not None:
             make_task_loss(self.task, self.layout)  # validates groups and targets
@@ -108,7 +111,7 @@ class Robot:
 
     def with_material(self, material: Material) -> Robot:
         """This robot with another `Material`; dt follows the stiffest allowed design
-        (`Material.time_step`) and the episode keeps its duration in seconds."""
+        (`Material.time_step`) and a rollout keeps its duration in seconds."""
         duration = self.steps * self.config.dt
         dt = material.time_step(self.config.dx)
         config = dataclasses.replace(self.config, dt=dt)
@@ -128,12 +131,12 @@ class Robot:
         """`loss(initial_state, final_state) -> (total, components)` for `task` (default: own)."""
         task = task or self.task
         if task is None:
-            raise ConfigError(f"robot {self.name!r} has no default task; pass one")
+            raise SimConfigError(f"robot {self.name!r} has no default task; pass one")
         return make_task_loss(task, self.layout)
 
 
 def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:
-    """Raise `ConfigError` unless every particle lies inside the walls with a cell of margin."""
+    """Raise `SimConfigError` unless every particle lies inside the walls with a cell of margin."""
     assert config.boundary is not None  # SimConfig sets the default box
     thickness = config.boundary.thickness
     lower = np.full(config.dim, (thickness + 0.5) * config.dx)
@@ -141,7 +144,7 @@ def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:
     low, high = layout.bounds()
     if np.all(low >= lower) and np.all(high <= upper):
         return
-    raise ConfigError(
+    raise SimConfigError(
         f"{name} does not fit the grid: its particles span {np.round(low, 4).tolist()} to "
         f"{np.round(high, 4).tolist()}, but must stay within {np.round(lower, 4).tolist()} to "
         f"{np.round(upper, 4).tolist()} (inside walls of {thickness} cells, dx = {config.dx:g}). "

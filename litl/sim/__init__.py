@@ -5,7 +5,7 @@ actuator strengths) and an initial `SimState`; then either take single steps wit
 run whole rollouts with `make_rollout` (pure, jittable, differentiable) or `simulate` (checked).
 """
 
-from litl.sim.config import Boundary, ConfigError, SimConfig, Wall
+from litl.sim.config import Boundary, ConfigError, SimConfig, SimConfigError, Wall
 from litl.sim.rollout import Health, Trajectory, centroid, make_rollout
 from litl.sim.safety import (
     SimulationError,
@@ -27,6 +27,7 @@ __all__ = [
     "Grid",
     "Health",
     "SimConfig",
+    "SimConfigError",
     "SimState",
     "SimulationError",
     "Trajectory",

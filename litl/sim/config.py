@@ -30,8 +30,13 @@ CONSTITUTIVE_MODELS = ("fixed_corotated", "neo_hookean")
 BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
 
 
-class ConfigError(UserError, ValueError):
-    """A simulator setting is invalid; the message says which and how to fix it."""
+class SimConfigError(UserError, ValueError):
+    """A simulator setting (`SimConfig`, a wall, a robot's scene) is invalid; the message says
+    which and how to fix it. (Not `litl.config.SettingsError`, which names a setting of a run.)"""
+
+
+# The name before issue 39 (it read like the settings' error): kept, `litl.sim` exported it.
+ConfigError = SimConfigError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,11 +56,11 @@ class Wall:
 
     def __post_init__(self) -> None:
         if self.kind not in WALL_KINDS:
-            raise ConfigError(f"unknown wall kind {self.kind!r}; choose one of {WALL_KINDS}")
+            raise SimConfigError(f"unknown wall kind {self.kind!r}; choose one of {WALL_KINDS}")
         if not (self.friction >= 0.0 and math.isfinite(self.friction)):
-            raise ConfigError(f"wall friction must be a finite number >= 0, got {self.friction!r}")
+            raise SimConfigError(f"wall friction must be a finite number >= 0, got {self.friction!r}")
         if self.kind != "friction" and self.friction != 0.0:
-            raise ConfigError(
+            raise SimConfigError(
                 f"a {self.kind!r} wall ignores friction={self.friction}; use Wall('friction', "
                 f"{self.friction}) for a Coulomb wall"
             )
@@ -97,9 +102,9 @@ class Boundary:
         object.__setattr__(self, "walls", tuple(self.walls))
         object.__setattr__(self, "pinned_boxes", _as_boxes(self.pinned_boxes))
         if not all(isinstance(w, Wall) for w in self.walls):
-            raise ConfigError("Boundary.walls must be Wall objects, e.g. Wall('sticky')")
+            raise SimConfigError("Boundary.walls must be Wall objects, e.g. Wall('sticky')")
         if not isinstance(self.thickness, int) or self.thickness < 1:
-            raise ConfigError(f"wall thickness must be an integer >= 1 cell, got {self.thickness!r}")
+            raise SimConfigError(f"wall thickness must be an integer >= 1 cell, got {self.thickness!r}")
 
 
 # A pinned box as given: (lower corner, upper corner) in domain coordinates.
@@ -150,38 +155,42 @@ class SimConfig:
         object.__setattr__(self, "gravity", tuple(float(g) for g in self.gravity))
         dim = len(self.grid_shape)
         if dim not in (2, 3):
-            raise ConfigError(f"grid_shape must have 2 or 3 entries (the dimension), got {self.grid_shape!r}")
+            raise SimConfigError(
+                f"grid_shape must have 2 or 3 entries (the dimension), got {self.grid_shape!r}"
+            )
         for n in self.grid_shape:
             if not isinstance(n, int) or n < 8:
-                raise ConfigError(
+                raise SimConfigError(
                     f"every grid_shape entry must be an integer >= 8 nodes, got {self.grid_shape!r}"
                 )
         for name in ("dx", "dt"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ConfigError(f"{name} must be a positive finite number, got {value!r}")
+                raise SimConfigError(f"{name} must be a positive finite number, got {value!r}")
         if len(self.gravity) != dim or not all(math.isfinite(g) for g in self.gravity):
-            raise ConfigError(
+            raise SimConfigError(
                 f"gravity must be a finite vector with {dim} entries (one per axis), got {self.gravity!r}"
             )
         if self.constitutive_model not in CONSTITUTIVE_MODELS:
-            raise ConfigError(
+            raise SimConfigError(
                 f"unknown constitutive_model {self.constitutive_model!r}; choose one of {CONSTITUTIVE_MODELS}"
             )
         if self.buffering not in BUFFERINGS:
-            raise ConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
+            raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
         boundary = Boundary.box(dim) if self.boundary is None else self.boundary
         object.__setattr__(self, "boundary", boundary)
         if len(boundary.walls) != 2 * dim:
-            raise ConfigError(
+            raise SimConfigError(
                 f"a {dim}D boundary needs {2 * dim} walls (low and high face of each axis), "
                 f"got {len(boundary.walls)}"
             )
         if 2 * boundary.thickness + 3 > min(self.grid_shape):
-            raise ConfigError(f"wall thickness {boundary.thickness} leaves no room in grid {self.grid_shape}")
+            raise SimConfigError(
+                f"wall thickness {boundary.thickness} leaves no room in grid {self.grid_shape}"
+            )
         for lo, hi in boundary.pinned_boxes:
             if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi, strict=True)):
-                raise ConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
+                raise SimConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
 
     @property
     def dim(self) -> int:

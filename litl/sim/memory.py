@@ -17,7 +17,7 @@ import dataclasses
 import math
 import os
 
-from litl.sim.config import ConfigError
+from litl.sim.config import SimConfigError
 
 # The default budget: this fraction of the device's memory (a GPU's, or the machine's RAM on
 # the CPU); the rest is for the learning phase, the replay buffer and XLA's scratch space.
@@ -25,7 +25,7 @@ MEMORY_FRACTION = 0.5
 GIB = 2**30
 
 
-class MemoryBudgetError(ConfigError):
+class MemoryBudgetError(SimConfigError):
     """Even segment checkpointing cannot fit the rollout's backward pass in the budget."""
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from litl.errors import UserError
-from litl.sim.config import ConfigError, SimConfig
+from litl.sim.config import SimConfig, SimConfigError
 from litl.sim.state import Body, Design, SimState
 
 # Elastic CFL number c dt / dx allowed. A lone particle (one that separated from the body, or a
@@ -50,12 +50,12 @@ def wave_speed(body: Body, design: Design) -> float:
 
 
 def check_time_step(config: SimConfig, body: Body, design: Design) -> float:
-    """Raise `ConfigError` if dt is too large for the stiffest particle; return the CFL number."""
+    """Raise `SimConfigError` if dt is too large for the stiffest particle; return the CFL number."""
     speed = wave_speed(body, design)
     cfl = speed * config.dt / config.dx
     if not np.isfinite(cfl) or cfl > MAX_CFL:
         limit = MAX_CFL * config.dx / speed
-        raise ConfigError(
+        raise SimConfigError(
             f"time step dt={config.dt:g} is too large for this material: the fastest elastic wave "
             f"(speed {speed:.4g} = sqrt((lambda + 2 mu + actuator strength) / density)) crosses "
             f"{cfl:.3g} cells per step, above the stable limit of {MAX_CFL}. Use dt <= {limit:.3g}, "
@@ -65,7 +65,7 @@ def check_time_step(config: SimConfig, body: Body, design: Design) -> float:
 
 
 def check_actuation(body: Body, design: Design) -> float:
-    """Raise `ConfigError` if an actuator can crush its material; return the largest active strain.
+    """Raise `SimConfigError` if an actuator can crush its material; return the largest active strain.
 
     The active strain of a particle is |actuator strength| / (lambda + 2 mu): how far the actuator
     alone would compress the material along its fiber. Above `MAX_ACTIVE_STRAIN` particles get
@@ -83,7 +83,7 @@ def check_actuation(body: Body, design: Design) -> float:
     ratio = float(strain[worst])
     if not np.isfinite(ratio) or ratio > MAX_ACTIVE_STRAIN:
         needed = float(strength[actuator[active]][worst]) / MAX_ACTIVE_STRAIN
-        raise ConfigError(
+        raise SimConfigError(
             f"actuators are too strong for the material: actuator strength "
             f"{float(strength[actuator[active]][worst]):.4g} against lambda + 2 mu = "
             f"{float(stiffness[active][worst]):.4g} is an active strain of {ratio:.3g}, above "
@@ -99,9 +99,9 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
     dim = config.dim
     n = np.shape(state.x)[0] if np.ndim(state.x) == 2 else None
     if n is None or np.shape(state.x)[1] != dim:
-        raise ConfigError(f"state.x must have shape (n_particles, {dim}), got {np.shape(state.x)}")
+        raise SimConfigError(f"state.x must have shape (n_particles, {dim}), got {np.shape(state.x)}")
     if n == 0:
-        raise ConfigError("the body has no particles")
+        raise SimConfigError("the body has no particles")
     expected = {
         "state.v": (state.v, (n, dim)),
         "state.C": (state.C, (n, dim, dim)),
@@ -115,23 +115,23 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
     }
     for name, (value, shape) in expected.items():
         if np.shape(value) != shape:
-            raise ConfigError(f"{name} must have shape {shape}, got {np.shape(value)}")
+            raise SimConfigError(f"{name} must have shape {shape}, got {np.shape(value)}")
     m = np.shape(body.fiber)[0] if np.ndim(body.fiber) == 2 else -1
     if np.shape(body.fiber) != (m, dim):
-        raise ConfigError(f"body.fiber must have shape (n_actuators, {dim}), got {np.shape(body.fiber)}")
+        raise SimConfigError(f"body.fiber must have shape (n_actuators, {dim}), got {np.shape(body.fiber)}")
     if np.shape(design.actuator_strength) != (m,):
-        raise ConfigError(
+        raise SimConfigError(
             f"design.actuator_strength must have one entry per actuator ({m}), "
             f"got shape {np.shape(design.actuator_strength)}"
         )
     actuator = np.asarray(body.actuator)
     if actuator.size and (actuator.min() < -1 or actuator.max() >= m):
-        raise ConfigError(
+        raise SimConfigError(
             f"body.actuator ids must be -1 (passive) or in [0, {m}), got range "
             f"[{actuator.min()}, {actuator.max()}]"
         )
     if m and not np.allclose(np.linalg.norm(np.asarray(body.fiber), axis=-1), 1.0, atol=1e-5):
-        raise ConfigError("every body.fiber direction must be a unit vector")
+        raise SimConfigError("every body.fiber direction must be a unit vector")
     positive = {
         "body.volume": body.volume,
         "design.youngs_modulus": design.youngs_modulus,
@@ -140,22 +140,22 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
     for name, given in positive.items():
         array = np.asarray(given)
         if not (np.all(np.isfinite(array)) and np.all(array > 0)):
-            raise ConfigError(f"{name} must be finite and > 0 for every particle (min {array.min():g})")
+            raise SimConfigError(f"{name} must be finite and > 0 for every particle (min {array.min():g})")
     nu = np.asarray(design.poisson_ratio)
     if not (np.all(nu > -1) and np.all(nu < 0.5)):
-        raise ConfigError(
+        raise SimConfigError(
             f"design.poisson_ratio must lie in (-1, 0.5) (0.5 is incompressible and makes lambda "
             f"infinite), got range [{nu.min():g}, {nu.max():g}]"
         )
     for name in ("x", "v", "C", "F"):
         if not np.all(np.isfinite(np.asarray(getattr(state, name)))):
-            raise ConfigError(f"state.{name} contains NaN or infinity")
+            raise SimConfigError(f"state.{name} contains NaN or infinity")
     cells = np.asarray(state.x, np.float64) / config.dx - 0.5
     upper = np.asarray(config.grid_shape) - 3
     outside = ~np.all((cells >= 0) & (cells < upper + 1), axis=-1)
     if outside.any():
         first = int(np.argmax(outside))
-        raise ConfigError(
+        raise SimConfigError(
             f"{int(outside.sum())} particles lie outside the grid's interior (e.g. particle {first} "
             f"at {np.asarray(state.x)[first].tolist()}); the domain is [0, {config.domain_size}] and "
             f"particles need 1.5 cells of margin: move the body or enlarge grid_shape/dx"

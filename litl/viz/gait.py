@@ -1,6 +1,6 @@
 """Gaits: which particles are a robot's feet, when each is off the floor, and whether it slips.
 
-A distance per episode does not say *how* a robot got there: stepping, hopping, sliding on its
+A distance per rollout does not say *how* a robot got there: stepping, hopping, sliding on its
 belly. `measure_gait` answers from recorded positions (`record_rollout`) alone, for any walker in
 2D or 3D; `draw_gait` draws the side view, each foot's height and each foot's travel.
 

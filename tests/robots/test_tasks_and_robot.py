@@ -19,7 +19,7 @@ from litl.robots import (
     place,
     sample_parts,
 )
-from litl.sim import Boundary, ConfigError, SimConfig, SimState, make_rollout
+from litl.sim import Boundary, SimConfig, SimConfigError, SimState, make_rollout
 
 CONFIG = SimConfig(grid_shape=(32, 32), dx=1 / 32, dt=3e-3, gravity=(0.0, -3.8), boundary=Boundary.box(2))
 
@@ -110,15 +110,15 @@ def test_bad_task_definitions_fail_early():
 
 
 def test_a_robot_that_does_not_fit_the_grid_says_so():
-    with pytest.raises(ConfigError, match="does not fit the grid: .*Scale the robot down"):
+    with pytest.raises(SimConfigError, match="does not fit the grid: .*Scale the robot down"):
         Robot("big", place(small_layout(), CONFIG, x=0.9), CONFIG)
-    with pytest.raises(ConfigError, match="does not fit"):
+    with pytest.raises(SimConfigError, match="does not fit"):
         Robot("sunk", small_layout(), CONFIG)  # not placed: the feet are inside the floor wall
 
 
 def test_a_time_step_too_large_for_the_stiffest_design_is_refused():
     coarse_dt = SimConfig(grid_shape=(32, 32), dx=1 / 32, dt=2e-2, gravity=(0.0, -3.8))
-    with pytest.raises(ConfigError, match="time step dt=0.02 is too large.*Use dt <="):
+    with pytest.raises(SimConfigError, match="time step dt=0.02 is too large.*Use dt <="):
         small_robot(config=coarse_dt)
     # E_max decides: the same dt passes with a softer upper bound.
     soft = Material(youngs_modulus=1.0, youngs_modulus_bounds=(0.8, 1.0), actuator_strength=0.15)
@@ -126,12 +126,12 @@ def test_a_time_step_too_large_for_the_stiffest_design_is_refused():
 
 
 def test_bad_materials_and_dimension_mismatch_fail_clearly():
-    with pytest.raises(ConfigError, match="E_min <= youngs_modulus <= E_max"):
+    with pytest.raises(SimConfigError, match="E_min <= youngs_modulus <= E_max"):
         Material(youngs_modulus=50.0)
-    with pytest.raises(ConfigError, match="poisson_ratio"):
+    with pytest.raises(SimConfigError, match="poisson_ratio"):
         Material(poisson_ratio=0.5)
     config3 = SimConfig(grid_shape=(32, 32, 32), dx=1 / 32, dt=1e-3, gravity=(0, -1, 0))
-    with pytest.raises(ConfigError, match="2D but its grid is 3D"):
+    with pytest.raises(SimConfigError, match="2D but its grid is 3D"):
         Robot("flat", small_layout(), config3)
 
 

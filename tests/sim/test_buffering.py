@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.sim import ConfigError, make_rollout
+from litl.sim import SimConfigError, make_rollout
 from litl.sim.step import resolve_buffering
 from tests.sim.scenes import block, sine_params, sine_policy
 
@@ -66,7 +66,7 @@ def test_every_setting_gives_the_same_values_and_gradients(deterministic, dim=2,
 
 def test_unknown_buffering_fails_with_the_choices():
     config = _tiny(2)[0]
-    with pytest.raises(ConfigError, match="unknown buffering 'nodes'.*fields_and_nodes"):
+    with pytest.raises(SimConfigError, match="unknown buffering 'nodes'.*fields_and_nodes"):
         dataclasses.replace(config, buffering="nodes")
 
 

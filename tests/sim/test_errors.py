@@ -6,8 +6,8 @@ import pytest
 from litl.robots.primitives import sample_box
 from litl.sim import (
     Boundary,
-    ConfigError,
     SimConfig,
+    SimConfigError,
     SimulationError,
     Wall,
     check_time_step,
@@ -40,28 +40,37 @@ idle = lambda params, state, grid_velocity: jnp.zeros(2)
 )
 def test_bad_config(kwargs, message):
     base = dict(grid_shape=(64, 64), dx=1 / 64, dt=1e-4, gravity=(0.0, -9.8))
-    with pytest.raises(ConfigError, match=message):
+    with pytest.raises(SimConfigError, match=message):
         SimConfig(**{**base, **kwargs})
 
 
 def test_bad_walls():
-    with pytest.raises(ConfigError, match="unknown wall kind"):
+    with pytest.raises(SimConfigError, match="unknown wall kind"):
         Wall("bouncy")
-    with pytest.raises(ConfigError, match="friction must be"):
+    with pytest.raises(SimConfigError, match="friction must be"):
         Wall("friction", -0.1)
-    with pytest.raises(ConfigError, match="ignores friction"):
+    with pytest.raises(SimConfigError, match="ignores friction"):
         Wall("sticky", 0.5)
-    with pytest.raises(ConfigError, match="thickness"):
+    with pytest.raises(SimConfigError, match="thickness"):
         Boundary.box(2, thickness=0)
+
+
+def test_the_old_name_of_the_simulators_error_still_catches_it():
+    from litl.config import SettingsError
+    from litl.errors import UserError
+    from litl.sim import ConfigError
+
+    assert ConfigError is SimConfigError and issubclass(SimConfigError, UserError)
+    assert not issubclass(SimConfigError, SettingsError)
 
 
 def test_time_step_too_large_for_stiffness():
     config, body, design, state = block(2, youngs=300.0)
     check_time_step(config, body, design)  # the scene's own dt is fine
     stiff = design.replace(youngs_modulus=design.youngs_modulus * 100)
-    with pytest.raises(ConfigError, match=r"dt=.* is too large.*Use dt <= "):
+    with pytest.raises(SimConfigError, match=r"dt=.* is too large.*Use dt <= "):
         check_time_step(config, body, stiff)
-    with pytest.raises(ConfigError, match="too large"):
+    with pytest.raises(SimConfigError, match="too large"):
         simulate(config, body, stiff, state, idle, None, 10)
 
 
@@ -84,7 +93,7 @@ def test_validate_rejects_inconsistent_inputs():
     ]
     for change, message in bad:
         args = {**dict(config=config, body=body, design=design, state=state), **change}
-        with pytest.raises(ConfigError, match=message):
+        with pytest.raises(SimConfigError, match=message):
             validate(**args)
 
 

@@ -14,7 +14,7 @@ import litl.robots
 from litl.models.open_loop import SinusoidParams, sinusoid_policy
 from litl.robots import walker2d
 from litl.robots.robot import Material, Robot
-from litl.sim import ConfigError, check_actuation, check_time_step, make_rollout
+from litl.sim import SimConfigError, check_actuation, check_time_step, make_rollout
 from litl.sim.safety import MAX_ACTIVE_STRAIN, MAX_CFL
 
 # Reached by Adam (lr 0.01) after 95 iterations from small random weights (float32).
@@ -81,7 +81,7 @@ def test_time_step_that_blew_up_the_biped_is_refused():
 
     config = dataclasses.replace(robot.config, dt=0.128 * robot.config.dx)  # CFL 0.80
     stiffest = robot.design_space.to_design(robot.design_space.uniform(30.0))
-    with pytest.raises(ConfigError, match="time step dt=.*too large"):
+    with pytest.raises(SimConfigError, match="time step dt=.*too large"):
         check_time_step(config, robot.body(), stiffest)
 
 
@@ -89,7 +89,7 @@ def test_actuators_that_crush_the_softest_design_are_refused():
     robot = litl.robots.get("biped", dx=1 / 64)
     crushing = Material(youngs_modulus=20.0, youngs_modulus_bounds=(5.0, 30.0), actuator_strength=4.0)
     with pytest.raises(
-        ConfigError,
+        SimConfigError,
         match=r"actuators are too strong.*active strain of 0\.667.*"
         r"lambda \+ 2 mu >= 20",
     ):
