@@ -214,11 +214,16 @@ def _components(robot, algorithm, params, steps) -> dict:
 
 
 def _recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
-    """The loss the run recorded for the same parameters (None if it recorded none)."""
+    """The loss the run recorded for the same parameters (None if it recorded none). A seed that
+    ended stuck reports its last good loss in final.json (`litl.stuck`); its final parameters'
+    own loss is `final_parameters_loss` there."""
     path = run_dir / f"{which}.json"
     if not path.exists():
         return None
-    return next((r["task_loss"] for r in json.loads(path.read_text()) if r["seed"] == seed), None)
+    entry = next((r for r in json.loads(path.read_text()) if r["seed"] == seed), None)
+    if entry is None:
+        return None
+    return entry["final_parameters_loss"] if entry.get("stuck") else entry["task_loss"]
 
 
 def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:

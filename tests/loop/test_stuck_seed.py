@@ -125,3 +125,12 @@ def test_the_claims_tables_count_and_mark_the_stuck_seed(stuck_run):
     assert verdict.a is not None and verdict.a.n == 2 and verdict.a.stuck == 1
     text = claims_markdown([verdict], 0.9, "test", [], {})
     assert "(n=2, 1 stuck)" in text and "*k stuck*" in text
+
+
+def test_the_replay_compares_a_stuck_seed_with_its_final_parameters_own_loss(stuck_run):
+    from litl.replay import _recorded_loss
+
+    run_dir, _, _ = stuck_run
+    final = json.loads((run_dir / "final.json").read_text())
+    assert _recorded_loss(run_dir, "final", 0) is None  # its final parameters' loss: not finite
+    assert _recorded_loss(run_dir, "final", 1) == final[1]["task_loss"]
