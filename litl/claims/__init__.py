@@ -8,7 +8,9 @@
 Runs go to `OUT/runs/<method>/<panel>/<variant>` (a second call resumes them); `OUT/claims.md`
 and `claims.csv` hold one row per claim and method (means with 90% intervals, a one-sided Welch
 p-value, a verdict by a stated rule and the verdict that survives a Holm-Bonferroni correction
-over the table's tests, see `litl.claims.verdicts`), `table1.md` the paper's Table 1
+over the table's tests, see `litl.claims.verdicts`; each verdict again at 60% of the
+iterations, and whether its curves were still falling at the end, see `litl.claims.cuts`),
+`table1.md` the paper's Table 1
 from the biped's runs, and `fig4a.png` ... `fig4d.png` the panels with 90% bands.
 """
 
