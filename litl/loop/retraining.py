@@ -1,0 +1,106 @@
+"""Learn and adopt: the observer's learning phase of Algorithm 1 for one seed, and its adoption.
+
+A learning phase trains a copy Θ′ of the observer on the replay buffer (the observer's own
+`Learner.phase`); adoption then moves Θ softly toward it, Θ ← α·Θ′ + (1 − α)·Θ (α: `loop.alpha`),
+and keeps the move only if the controller does no worse with it
+(`loop.safeguards.update_tolerance`). After the bootstrap's phase Θ takes Θ′ whole: a random Θ has
+nothing worth keeping.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+
+from litl.config import Config
+from litl.loop.learning import soft_update
+from litl.loop.replay_buffer import add
+from litl.loop.simulation import Simulation
+from litl.loop.state import LoopState, keep_if, skip_reason, split_key
+
+
+@dataclasses.dataclass(frozen=True)
+class Retraining:
+    """The learning phase and the adoption of its result, for one seed (vmap it over seeds).
+
+    Attributes:
+      simulation: the rollouts (the buffer's first snapshots; the check of an update).
+      config: the run's settings (`loop.alpha`, `loop.safeguards.update_tolerance`).
+    """
+
+    simulation: Simulation
+    config: Config
+
+    @property
+    def learner(self):
+        return self.simulation.observer.learner
+
+    def fill(self, state: LoopState) -> LoopState:
+        """One rollout of the current controller fills the buffer (the bootstrap's first half)."""
+        simulation = self.simulation
+        total, (_, trajectory) = simulation.simulate(state.controller, state.design, state.observer)
+        # A failed rollout's snapshots never enter the buffer.
+        healthy = skip_reason(trajectory.health, total, jnp.zeros((), simulation.dtype)) == 0
+        return state.replace(
+            buffer=keep_if(
+                healthy,
+                add(state.buffer, trajectory.snapshots, simulation.snapshot_velocities(trajectory)),
+                state.buffer,
+            )
+        )
+
+    def learn(self, state: LoopState, first=False):
+        """A learning phase on a copy Θ′, then its adoption (`adopt`).
+
+        `first`: a () bool array, or a value `jnp.asarray` makes one: whether this is the
+        bootstrap's phase (Θ ← Θ′ whole). As an array, so that the bootstrap's phase and the later
+        ones are one compiled program (the run shell passes it so)."""
+        if self.learner is None:
+            return state, state.stats
+        state, key = split_key(state)
+        trained, stats = self.learner.phase(state.observer, state.buffer, key)
+        return self.adopt(state, trained, stats, first)
+
+    def learn_seeds(self, states: LoopState, at_once: int, first=False):
+        """`learn` for a batch of seeds (every leaf's leading axis): the learning phases run
+        `at_once` seeds at a time (vmapped within a group, the groups one after another), the
+        rest vmapped. A vmapped phase runs until its slowest seed stops; one seed at a time
+        stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
+        if at_once >= jax.tree.leaves(states)[0].shape[0]:  # every seed together: the plain vmap
+            return jax.vmap(lambda state: self.learn(state, first))(states)
+        if self.learner is None:
+            return states, states.stats
+        states, keys = jax.vmap(split_key)(states)
+        trained, stats = jax.lax.map(
+            lambda seed: self.learner.phase(*seed), (states.observer, states.buffer, keys), batch_size=at_once
+        )
+        return jax.vmap(lambda state, phase, phase_stats: self.adopt(state, phase, phase_stats, first))(
+            states, trained, stats
+        )
+
+    def adopt(self, state: LoopState, trained, stats, first=False):
+        """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats`, kept only
+        if the controller does no worse with it; Θ ← Θ′ where `first` (a () bool array)."""
+        first = jnp.asarray(first, bool)
+        updated = soft_update(state.observer, trained, self.config.loop.alpha)
+        tolerance = self.config.loop.safeguards.update_tolerance
+        if tolerance is not None:
+            accepted = self.update_is_safe(state, updated, tolerance) | first
+            updated = keep_if(accepted, updated, state.observer)
+            stats = stats.replace(update_accepted=accepted)
+        updated = keep_if(first, trained, updated)
+        return state.replace(observer=updated, stats=stats), stats
+
+    def update_is_safe(self, state: LoopState, updated, tolerance: float):
+        """() bool: the current controller and design, simulated with the `updated` observer,
+        reach a task loss within tolerance * |loss| of the one they reach with the current
+        observer (and a finite one)."""
+        before, _ = self.simulation.simulate(state.controller, state.design, state.observer)
+        after, _ = self.simulation.simulate(state.controller, state.design, updated)
+        return jnp.isfinite(after) & (~jnp.isfinite(before) | (after <= before + tolerance * jnp.abs(before)))
+
+    def bootstrap(self, state: LoopState):
+        """One rollout of the untrained controller fills the buffer; Θ takes the trained copy."""
+        return self.learn(self.fill(state), first=True)

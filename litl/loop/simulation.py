@@ -1,0 +1,135 @@
+"""Simulate: one seed's differentiable rollout under Algorithm 1, with the observer in the loop.
+
+`Simulation` holds what a rollout needs (the robot, the controller, the observer, the grid field
+the policy reads) and gives the task loss and trajectory of one rollout of θ, φ, Θ; the
+optimization differentiates it, the retraining compares observers with it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from litl.config import Config, ControllerKind, FeatureGradient, GridField
+from litl.loop.observers import Observer
+from litl.loop.state import LoopState
+from litl.models.controller import MLPController
+from litl.models.open_loop import SinusoidController
+from litl.models.window import Window
+from litl.robots.robot import Robot
+from litl.sim import make_rollout
+from litl.sim.fields import full_cell_mass, grid_velocity, mass_weighted_velocity
+from litl.sim.memory import default_budget_bytes
+from litl.sim.rollout import centroid
+
+
+def make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
+    """The controller module `controller.kind` names (`litl.config.ControllerConfig`)."""
+    if settings.kind == ControllerKind.sinusoid:
+        return SinusoidController(robot.n_actuators, omega=settings.sinusoid.omega)
+    mlp = settings.mlp
+    return MLPController(robot.n_actuators, mlp.widths, period=mlp.period, feature_scale=mlp.feature_scale)
+
+
+@dataclasses.dataclass(frozen=True)
+class Simulation:
+    """One seed's rollouts: the robot under the controller fed by the observer's features.
+
+    Attributes:
+      robot: the robot and its task.
+      config: the run's settings.
+      dtype: the simulation's float dtype.
+      steps: steps per rollout.
+      stride: the snapshot stride (a snapshot of the grid field every `stride` steps).
+      scene: the robot's `Scene` in `dtype` (config, body, design, initial state).
+      observer: the observer (its features feed the controller at every step).
+      controller: the controller module.
+    """
+
+    robot: Robot
+    config: Config
+    dtype: Any
+    steps: int
+    stride: int
+    scene: Any
+    observer: Observer
+    controller: MLPController | SinusoidController
+
+    @property
+    def window(self) -> Window:
+        """The grid window a learned observer's snapshots are cropped to (else the whole grid)."""
+        if self.observer.learner is not None:
+            return self.observer.learner.window
+        return Window.around(self.scene.config.grid_shape, self.scene.config.dx, None)
+
+    def policy(self, params, state, grid_velocity):
+        """Actuation from the observer's features of the grid (and the clock)."""
+        controller_params, observer_params = params
+        features = self.observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
+        if self.config.controller.mlp.feature_gradient == FeatureGradient.stop:
+            features = jax.lax.stop_gradient(features)
+        time = state.step.astype(self.dtype) * self.scene.config.dt
+        return self.controller.apply(controller_params, features.astype(self.dtype), time=time)
+
+    @functools.cached_property
+    def field(self):
+        """field(grid): what the policy reads of the grid and the snapshots record."""
+        if self.config.observer.vae.field == GridField.mass_weighted:
+            scene = self.scene
+            return mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
+        return grid_velocity
+
+    @functools.cached_property
+    def rollout(self):
+        """One seed's rollout; the seeds run vmapped, so each gets its share of the budget."""
+        sim, seeds = self.config.sim, self.config.seeds
+        budget = sim.budget_bytes(seeds)
+        if budget is None:
+            budget = default_budget_bytes() // seeds
+        return make_rollout(
+            self.scene.config,
+            self.scene.body,
+            self.policy,
+            self.steps,
+            snapshot_stride=self.stride,
+            observe=centroid,
+            field=self.field,
+            checkpoint_every=sim.checkpoint_every,
+            memory_budget=budget,
+        )
+
+    def simulate(self, controller_params, design, observer, initial=None):
+        """(task loss, (its components, the trajectory)) of one rollout from the robot's initial
+        state, or from `initial` (a `SimState` like it, e.g. with other velocities)."""
+        initial = self.scene.state if initial is None else initial
+        final, trajectory = self.rollout(
+            (controller_params, observer), self.robot.design_space.to_design(design), initial
+        )
+        total, components = self.robot.task_loss()(initial, final)
+        if self.observer.learner is not None and not self.window.whole_grid:
+            # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
+            # with the state after that step: crop both around that state's centroid.
+            stride = self.stride
+            centres = trajectory.observations[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
+            trajectory = trajectory.replace(
+                snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres)
+            )
+        return total, (components, trajectory)
+
+    def snapshot_velocities(self, trajectory):
+        """(n_snapshots, d) the robot's mean particle velocity at each snapshot, from the
+        centroids recorded before and after the step that produced it (x += dt v, so the
+        difference is exact for free particles)."""
+        centres = jnp.concatenate([centroid(self.scene.state)[None], trajectory.observations])
+        velocity = (centres[1:] - centres[:-1]) / self.scene.config.dt
+        stride = self.stride
+        return velocity[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
+
+    def evaluate(self, state: LoopState):
+        """The task loss of the current θ, φ, Θ (no gradient)."""
+        total, _ = self.simulate(state.controller, state.design, state.observer)
+        return total
