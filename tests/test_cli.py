@@ -1,5 +1,7 @@
-"""`python -m litl` end to end in fresh processes: the default job (smoke-sized), config errors,
-and sweeps with the basic, joblib (a robot of every kind at smoke scale) and submitit_local launchers.
+"""`python -m litl` end to end in fresh processes: the default job (smoke-sized), the ways out of a
+bad setting (exit status, one line, no directory left), and sweeps with the basic, joblib (a robot
+of every kind at smoke scale) and submitit_local launchers. What a setting's check says is tested
+in process (`compose`, as the command line composes), where it costs no start of a process.
 
 The processes run from a temporary directory, so they import the installed package when litl is
 installed (the README's commands install it non-editable) and the source tree otherwise.
@@ -412,6 +414,22 @@ def test_a_robot_of_your_own_runs_from_the_cli(tmp_path):
     assert done.returncode == 0, done.stderr[-3000:]
     (run_dir,) = run_dirs(tmp_path / "outputs")
     assert json.loads((run_dir / "run.json").read_text())["robot"] == "stool"
-    missing = litl_command(["robot.name=stol", "robot.module=my_robots"], tmp_path, timeout=120)
-    assert missing.returncode == 2
-    assert "unknown robot 'stol'" in missing.stderr and "registered no robot" in missing.stderr
+
+
+def test_a_misspelt_robot_of_your_own_is_named_with_its_module(tmp_path, monkeypatch):
+    """In process (the exit status of such an error is checked above): the module is imported,
+    registers its robot, and the message says it registered none of the name asked for."""
+    from litl.app import build_robot, compose
+    from litl.errors import UserError
+    from litl.robots import catalog
+    from tests.robots.test_register import STOOL_MODULE
+
+    (tmp_path / "my_robots.py").write_text(STOOL_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(catalog, "ROBOTS", dict(catalog.ROBOTS))  # the registration is undone
+    try:
+        with pytest.raises(UserError, match="unknown robot 'stol'.*registered no robot"):
+            build_robot(compose(["robot.name=stol", "robot.module=my_robots"]))
+        assert "stool" in catalog.ROBOTS  # the module was imported
+    finally:
+        sys.modules.pop("my_robots", None)
