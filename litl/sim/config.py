@@ -117,7 +117,8 @@ def _as_boxes(boxes: Iterable[Corners]) -> tuple[tuple[tuple[float, ...], tuple[
 
 @dataclasses.dataclass(frozen=True)
 class SimConfig:
-    """Static configuration of an MLS-MPM simulation.
+    """Static configuration of an MLS-MPM simulation (a robot brings its own; a run's `sim.*`
+    settings, the rollouts' length and float type, are `litl.config.RolloutConfig`).
 
     Attributes:
       grid_shape: number of grid nodes per axis, e.g. ``(128, 128)`` or ``(128, 64)`` in 2D,
