@@ -99,7 +99,7 @@ def measure(
             (_, stats), seconds = _timed(learn, state)
             phases.append(seconds)
         learn_s[group] = round(statistics.median(phases), 2)
-    steps_taken = stats.epochs_used * stats.steps_per_epoch
+    steps_taken = stats["epochs_used"] * stats["steps_per_epoch"]
     episode_opt_s = config.loop.iterations * optimize_s
     device = jax.devices()[0]
     peak_device = (device.memory_stats() or {}).get("peak_bytes_in_use")  # None on CPU
@@ -120,7 +120,7 @@ def measure(
         "learn_steps_mean": round(float(steps_taken.mean()), 1),
         "learn_share": round(min(learn_s.values()) / episode_opt_s, 2),
         "learn_compile_s": learn_compile,
-        "recon_explained": [round(float(v), 3) for v in stats.recon_explained],
+        "recon_explained": [round(float(v), 3) for v in stats["recon_explained"]],
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
         "peak_device_mb": None if peak_device is None else round(peak_device / 2**20),
         "device": {

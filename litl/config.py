@@ -340,6 +340,25 @@ class KMeansConfig(_Checked):
 
 
 @dataclass(frozen=True)
+class PCAConfig(_Checked):
+    """The PCA observer (`observer=pca`): a linear projection of the windowed grid field, fitted
+    on the replay buffer in every learning phase (`litl.observers.pca`).
+
+    Attributes:
+      components: r, principal components (the controller's features).
+      window: side (domain units) of the grid window it sees, as `observer.vae.window`.
+    """
+
+    KEY = "observer.pca"
+    components: int = 8
+    window: float | None = 0.5
+
+    def check(self) -> None:
+        self._positive_ints("components")
+        self._positive_numbers("window", optional=("window",))
+
+
+@dataclass(frozen=True)
 class ObserverConfig(_Checked):
     """What the controller sees. Each observer reads its own section (`vae` for vae and ae,
     `kmeans`), so two runs differ in their observer exactly when that section differs.
@@ -351,6 +370,7 @@ class ObserverConfig(_Checked):
         (`litl.loop.observers.register`); then kind=<its name>.
       vae: settings of the (V)AE observers (`AutoencoderConfig`).
       kmeans: settings of the k-means observer (`KMeansConfig`).
+      pca: settings of the PCA observer (`PCAConfig`).
     """
 
     KEY = "observer"
@@ -358,6 +378,7 @@ class ObserverConfig(_Checked):
     module: str | None = None
     vae: AutoencoderConfig = field(default_factory=AutoencoderConfig)
     kmeans: KMeansConfig = field(default_factory=KMeansConfig)
+    pca: PCAConfig = field(default_factory=PCAConfig)
 
 
 @dataclass(frozen=True)
@@ -819,10 +840,14 @@ def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]
 
 def upgrade(tree: dict[str, Any]) -> dict[str, Any]:
     """A run's nested settings (`run.json`'s "config") with moved keys renamed; a run recorded
-    before methods were named started from litl's."""
+    before methods were named started from litl's; one recorded before a section was added ran
+    with its defaults."""
     flat = flatten(tree)
     flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
     flat.setdefault("method", Method.litl.value)
+    # observer.pca is read only by the PCA observer, which came with it.
+    for key, value in flatten({"observer": {"pca": json_safe(dataclasses.asdict(PCAConfig()))}}).items():
+        flat.setdefault(key, value)
     return unflatten(flat)
 
 
@@ -872,6 +897,7 @@ def _dataclass_of(annotation: object) -> type[_Checked] | None:
         ObserverConfig,
         AutoencoderConfig,
         KMeansConfig,
+        PCAConfig,
         ControllerConfig,
         MLPConfig,
         SinusoidConfig,

@@ -5,8 +5,9 @@
 * robot.png (the robot with its actuators and targets) and robot.gif (the final controller and
   design of the first seed whose rollout stays finite, particles coloured by actuation; seeds that
   blew up are skipped and named on stderr);
-* for a learned observer: snapshots.png (Fig. 1: velocity snapshots, latents, reconstructions),
-  latent_sweeps.png (Fig. 8) and saliency.gif; for k-means: clusters.png (Fig. 7).
+* the observer's own pictures (`Observer.pictures`): for the autoencoder snapshots.png (Fig. 1:
+  velocity snapshots, latents, reconstructions), latent_sweeps.png (Fig. 8) and saliency.gif; for
+  k-means clusters.png (Fig. 7); for PCA its components and reconstructions.
 """
 
 from __future__ import annotations
@@ -22,16 +23,9 @@ import numpy as np  # noqa: E402
 
 from litl.loop import make_algorithm, seed_slice  # noqa: E402
 from litl.loop.progress import say  # noqa: E402
-from litl.loop.replay_buffer import newest  # noqa: E402
-from litl.models.kmeans import KMeansObserver  # noqa: E402
-from litl.models.vae import ConvAutoencoder  # noqa: E402
 from litl.report import write_report  # noqa: E402
 from litl.sim import SimulationError  # noqa: E402
 from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
-from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
-from litl.viz.saliency import animate_saliency  # noqa: E402
-
-SNAPSHOTS = 6
 
 
 def draw_run(
@@ -103,44 +97,6 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
 
 
 def _representation(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> list[pathlib.Path]:
-    # Pictures follow the observer's parameters' type: k-means clusters, an autoencoder's
-    # snapshots, latent sweeps and saliency; nothing for other observers (or open loop).
-    if isinstance(state.observer, KMeansObserver):
-        figure = plt.figure(figsize=(6, 5))
-        ax = figure.add_subplot(111, projection="3d" if robot.dim == 3 else None)
-        draw_clusters(robot, state.observer, ax=ax)
-        figure.savefig(run_dir / "clusters.png", dpi=100)
-        plt.close(figure)
-        return [run_dir / "clusters.png"]
-    if not isinstance(algorithm.model, ConvAutoencoder):
-        return []
-    snapshots = newest(state.buffer, SNAPSHOTS)
-    if len(snapshots) == 0:
-        return []
-    written = []
-    for name, make in (
-        ("snapshots.png", lambda path: draw_snapshots(algorithm.model, state.observer, snapshots, path)),
-        ("latent_sweeps.png", lambda path: draw_latent_sweeps(algorithm.model, state.observer, path=path)),
-    ):
-        figure = make(run_dir / name)
-        plt.close(figure)
-        written.append(run_dir / name)
-    times = None
-    if algorithm.controller.period is not None:
-        # The newest snapshots are the latest rollout's last ones: snapshot k of a rollout is the
-        # field after step (k + 1) * stride, which the policy reads at that time.
-        stride = min(stride, algorithm.steps)
-        last = algorithm.steps // stride
-        times = (last - len(snapshots) + 1 + np.arange(len(snapshots))) * stride * robot.config.dt
-    written.append(
-        animate_saliency(
-            algorithm.model,
-            state.observer,
-            algorithm.controller,
-            state.controller,
-            snapshots,
-            run_dir / "saliency.gif",
-            times=times,
-        )
-    )
-    return written
+    """The observer's own pictures of its representation (`Observer.pictures`), if it has any."""
+    draw_pictures = algorithm.observer.pictures
+    return [] if draw_pictures is None else list(draw_pictures(robot, algorithm, state, run_dir, stride))

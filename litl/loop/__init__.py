@@ -4,39 +4,28 @@
     from litl.loop import run
     result = run(litl.robots.get("biped"), Config(seeds=10), "outputs/biped")
 
-Observers (`litl.loop.observers`) are an interface of pure functions with a registry by name.
+Observers (`litl.observers`) are an interface of pure functions with a registry by name; the loop
+knows only that interface.
 """
 
 from litl.loop.algorithm import Algorithm, LoopState, make_algorithm, seed_slice, stack_seeds
-from litl.loop.learning import (
-    LearningStats,
-    Split,
-    fit_scale_masked,
-    make_learning_phase,
-    random_split,
-    soft_update,
-)
 from litl.loop.observers import Learner, Observer
 from litl.loop.replay_buffer import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
+from litl.loop.retraining import soft_update
 from litl.loop.run import RunDirectoryError, RunResult, load_final, run
 
 __all__ = [
     "Algorithm",
     "Learner",
-    "LearningStats",
     "LoopState",
     "Observer",
     "ReplayBuffer",
     "RunDirectoryError",
     "RunResult",
-    "Split",
     "add",
     "clear",
-    "fit_scale_masked",
     "load_final",
     "make_algorithm",
-    "make_learning_phase",
-    "random_split",
     "replace_with",
     "run",
     "seed_slice",

@@ -43,7 +43,6 @@ import jax.numpy as jnp
 
 from litl.config import Config, Schedule, SettingsError
 from litl.loop import observers
-from litl.loop.learning import LearningStats
 from litl.loop.observers import Observer
 from litl.loop.optimization import Optimization
 from litl.loop.replay_buffer import ReplayBuffer
@@ -70,16 +69,16 @@ class Algorithm:
     """The pure pieces of one seed's run; see the module docstring."""
 
     init: Callable[[int], LoopState]
-    bootstrap: Callable[[LoopState], tuple[LoopState, LearningStats]]
+    bootstrap: Callable[[LoopState], tuple[LoopState, dict]]
     # fill(state): the bootstrap's rollout into the buffer; bootstrap(state) is
     # learn(fill(state), first=True).
     fill: Callable[[LoopState], LoopState]
     optimize: Callable[[LoopState], tuple[LoopState, dict]]
     # learn(state, first=False); first: the bootstrap's phase (Θ takes Θ′ whole, unchecked).
-    learn: Callable[..., tuple[LoopState, LearningStats]]
+    learn: Callable[..., tuple[LoopState, dict]]
     # learn_seeds(states, at_once, first=False): `learn` for a batch of seeds, `at_once` phases
     # at a time.
-    learn_seeds: Callable[..., tuple[LoopState, LearningStats]]
+    learn_seeds: Callable[..., tuple[LoopState, dict]]
     evaluate: Callable[[LoopState], jnp.ndarray]
     steps: int
     observer: Observer
@@ -116,23 +115,11 @@ class Algorithm:
         return self.schedule == "alternating"
 
 
-def empty_stats(dtype, max_epochs: int, dim: int) -> LearningStats:
-    nan = jnp.full((), jnp.nan, dtype)
-    zero = jnp.zeros((), jnp.int32)
-    return LearningStats(
-        recon_loss_train=nan,
-        recon_loss_val=nan,
-        recon_explained=nan,
-        active_units=zero,
-        velocity_r2=jnp.full((dim,), jnp.nan, dtype),
-        kl=nan,
-        val_loss=nan,
-        epochs_used=zero,
-        best_epoch=zero,
-        val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
-        steps_per_epoch=zero,
-        update_accepted=jnp.ones((), bool),
-    )
+def empty_statistics(observer: Observer, dtype, dim: int) -> dict:
+    """A seed's statistics before its first learning phase: the observer's (none for one that
+    does not learn) and the loop's own ``update_accepted``."""
+    learner = observer.learner
+    return {**(learner.empty_statistics(dtype, dim) if learner is not None else {}), "update_accepted": True}
 
 
 def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
@@ -153,6 +140,12 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     schedule = "fixed" if observer.learner is None else config.loop.schedule.value
     stride = min(config.loop.snapshot_stride, steps)
     _check_learning_data(config.loop, observer, schedule, steps, stride)
+    if schedule == Schedule.simultaneous and observer.learner is not None and observer.learner.step is None:
+        raise SettingsError(
+            f"observer {config.observer.kind!r} learns in phases only (it has no single SGD step): "
+            f"loop.schedule=simultaneous needs one; use loop.schedule=alternating or one_shot",
+            "loop.schedule",
+        )
     every = config.sim.checkpoint_every
     if isinstance(every, int) and every % stride:
         raise SettingsError(
@@ -233,7 +226,7 @@ def _init(simulation: Simulation, optimization: Optimization, seed: int) -> Loop
             simulation.config.loop.buffer_capacity, simulation.window.shape, dim, dtype
         ),
         key=jax.random.key_data(key),
-        stats=empty_stats(dtype, simulation.config.loop.learning.max_epochs, dim),
+        stats=empty_statistics(observer, dtype, dim),
         best=Best(
             task_loss=jnp.full((), jnp.inf, dtype),
             step=jnp.full((), -1, jnp.int32),

@@ -84,7 +84,8 @@ class Optimization:
         recon = jnp.full((), jnp.nan, self.simulation.dtype)
         if self.schedule == Schedule.simultaneous:
             learner = self.simulation.observer.learner
-            assert learner is not None  # the simultaneous schedule is for an observer that learns
+            # make_algorithm allows the simultaneous schedule only for an observer with a step
+            assert learner is not None and learner.step is not None
             state, key = split_key(state)
             observer_params, observer_optimizer, losses = learner.step(
                 state.observer, state.observer_optimizer, snapshots, key

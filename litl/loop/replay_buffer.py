@@ -1,7 +1,7 @@
 """Experience replay buffer of grid velocity snapshots (paper Sec. 4, Alg. 1 line "Store Υ_j in I").
 
 Beside each snapshot the buffer keeps the robot's velocity at that moment (the particles' mean
-velocity), which the learning phase uses to score its codes (`LearningStats.velocity_r2`) and
+velocity), which the learning phase uses to score its codes (the autoencoder's ``velocity_r2``) and
 never trains on.
 
 A fixed-capacity ring buffer held as a pytree, so that adding snapshots is jittable and a batch of

@@ -13,12 +13,27 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import optax
 
 from litl.config import Config
-from litl.loop.learning import soft_update
 from litl.loop.replay_buffer import add
 from litl.loop.simulation import Simulation
 from litl.loop.state import LoopState, keep_if, skip_reason, split_key
+
+
+def soft_update(target, online, alpha):
+    """Target update Θ ← α·Θ′ + (1 − α)·Θ over every leaf (network weights and scale).
+
+    Args:
+      target: Θ, the observer used during episodes.
+      online: Θ′, the copy trained in the learning phase.
+      alpha: step size in [0, 1] (a Python number is checked; an array, e.g. per seed, is not).
+        α = 1 returns `online`, α = 0 returns `target`.
+    """
+    if isinstance(alpha, (int, float)) and not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"alpha must be in [0, 1], got {alpha!r}")
+    # Polyak averaging, alpha * new + (1 - alpha) * old: exact at alpha = 1 (and at 0).
+    return optax.incremental_update(online, target, alpha)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,16 +96,18 @@ class Retraining:
         )
 
     def adopt(self, state: LoopState, trained, stats, first=False):
-        """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats`, kept only
-        if the controller does no worse with it; Θ ← Θ′ where `first` (a () bool array)."""
+        """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats` (a mapping
+        of named values), kept only if the controller does no worse with it; Θ ← Θ′ where
+        `first` (a () bool array). The statistics come back as a dict with ``update_accepted``."""
         first = jnp.asarray(first, bool)
         updated = soft_update(state.observer, trained, self.config.loop.alpha)
         tolerance = self.config.loop.safeguards.update_tolerance
+        accepted = jnp.ones((), bool)
         if tolerance is not None:
             accepted = self.update_is_safe(state, updated, tolerance) | first
             updated = keep_if(accepted, updated, state.observer)
-            stats = stats.replace(update_accepted=accepted)
         updated = keep_if(first, trained, updated)
+        stats = {**dict(stats), "update_accepted": accepted}
         return state.replace(observer=updated, stats=stats), stats
 
     def update_is_safe(self, state: LoopState, updated, tolerance: float):

@@ -7,10 +7,11 @@ writes into the run directory:
 * `run.json`: the settings (a rerun on the same directory must use the same ones);
 * `metrics.jsonl`: one JSON line per optimization iteration and seed (see `run`);
 * `learning.jsonl`: one JSON line per learning phase and seed: seed, phase (0: the initial
-  training; k: after episode k - 1), epochs_used, best_epoch, steps_per_epoch, sgd_steps,
-  recon_explained, active_units, velocity_r2, update_accepted (see `LearningStats`), wall_s (the phase's time
-  for all seeds, compilation included in phase 0) and val_recon_history (validation
-  reconstruction loss after each epoch: the paper's Fig. 5);
+  training; k: after episode k - 1), the observer's statistics as its `Learner.records` writes
+  them (the autoencoder's: epochs_used, best_epoch, steps_per_epoch, sgd_steps, the
+  reconstruction losses, recon_explained, active_units, velocity_r2, kl and val_recon_history,
+  the validation reconstruction loss after each epoch: the paper's Fig. 5), update_accepted and
+  wall_s (the phase's time for all seeds, compilation included in phase 0);
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
 * `final/`: the final parameters of every seed (controller, design, observer), and `final.json`
   their task loss per seed (a forward simulation after the last update); a seed whose last
@@ -51,6 +52,7 @@ from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
 from litl.loop.progress import Progress, say
 from litl.loop.replay_buffer import newest
+from litl.observers.interface import every_value
 from litl.robots.robot import Robot
 from litl.stuck import seed_ends
 
@@ -363,7 +365,9 @@ class _Shell:
             phase_start = time.perf_counter()
             state, stats = jax.block_until_ready(self.bootstrap(shard_seeds(template)))
             self.learning = (
-                _learning_records(stats, seeds, 0, time.perf_counter() - phase_start)
+                _learning_records(
+                    stats, seeds, 0, time.perf_counter() - phase_start, algorithm.observer.learner
+                )
                 if algorithm.observer.learned
                 else []
             )
@@ -408,6 +412,7 @@ class _Shell:
                     (episode, iteration, step),
                     before if iteration < 2 else None,
                     time.perf_counter() - self.start_time,
+                    self.algorithm.observer.learner,
                 )
                 out.writelines(json.dumps(record) + "\n" for record in new)
                 out.flush()
@@ -422,7 +427,9 @@ class _Shell:
         """The learning phase after `episode`, its statistics appended to learning.jsonl."""
         phase_start = time.perf_counter()
         state, stats = jax.block_until_ready(self.learn(state, first=False))
-        phase = _learning_records(stats, self.seeds, episode + 1, time.perf_counter() - phase_start)
+        phase = _learning_records(
+            stats, self.seeds, episode + 1, time.perf_counter() - phase_start, self.algorithm.observer.learner
+        )
         with open(self.learning_file, "a") as log:
             log.writelines(json.dumps(r) + "\n" for r in phase)
         self.learning += phase
@@ -430,20 +437,13 @@ class _Shell:
         return state
 
     def log_pictures(self, state, step: int) -> None:
-        """The first seed's newest snapshots and their reconstructions into the live log (a
-        learned autoencoder only)."""
-        from litl.models.vae import ConvAutoencoder
-
-        model = self.algorithm.model
-        if isinstance(self.logger, NoLogger) or not isinstance(model, ConvAutoencoder):
+        """The first seed's newest snapshots and their reconstructions into the live log (an
+        observer that reconstructs its input only)."""
+        learner = self.algorithm.observer.learner
+        if isinstance(self.logger, NoLogger) or learner is None or learner.reconstruct is None:
             return
         if self.reconstruct is None:  # compiled once per run
-
-            def reconstruct(params, fields):
-                code = model.apply(params.network, fields / params.scale, method="encode")[0]
-                return model.apply(params.network, code, method="decode") * params.scale
-
-            self.reconstruct = jax.jit(reconstruct)
+            self.reconstruct = jax.jit(learner.reconstruct)
         first = seed_slice(jax.tree.map(np.asarray, state), 0)
         snapshots = newest(first.buffer, 6)
         if len(snapshots):
@@ -451,11 +451,12 @@ class _Shell:
             self.logger.image(self.seeds[0], "observer/snapshots", pixels, step)
 
 
-def _iteration_records(metrics, stats, design, seeds, position, before, seconds) -> list[dict]:
+def _iteration_records(metrics, stats, design, seeds, position, before, seconds, learner) -> list[dict]:
     """One `metrics.jsonl` record per seed of an optimization iteration (arrays batched over
-    seeds): `position` = (episode, iteration, global step); `stats`, the learning phase whose
-    observer is in use; `before`, the task losses before the latest retraining (on iterations 0
-    and 1 of an episode, for retrain_effect and retrain_change; else None)."""
+    seeds): `position` = (episode, iteration, global step); `stats`, the statistics of the learning
+    phase whose observer is in use (what `learner.records` repeats of them); `before`, the task
+    losses before the latest retraining (on iterations 0 and 1 of an episode, for retrain_effect
+    and retrain_change; else None)."""
     episode, iteration, step = position
     records = []
     for s, seed in enumerate(seeds):
@@ -467,8 +468,7 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
             **{k: _json_value(v[s]) for k, v in metrics.items()},
             "skipped": SKIP_REASONS.get(int(metrics["skipped"][s])),
             "design": _json_value(design[s]),
-            **_phase_statistics(stats, s),
-            "learning_epochs": _json_value(stats.epochs_used[s]),
+            **_statistics_records(learner, stats, s)[1],
             "retrain_effect": None,
             "retrain_change": None,
             "wall_s": round(seconds, 3),
@@ -480,43 +480,31 @@ def _iteration_records(metrics, stats, design, seeds, position, before, seconds)
     return records
 
 
-def _phase_statistics(stats, s: int) -> dict:
-    """Seed `s`'s statistics of a learning phase (`LearningStats`, batched over seeds)."""
-    return {
-        name: _json_value(getattr(stats, name)[s])
-        for name in (
-            "recon_loss_train",
-            "recon_loss_val",
-            "recon_explained",
-            "active_units",
-            "velocity_r2",
-            "kl",
-            "update_accepted",
-        )
-    }
+def _statistics_records(learner, stats, s: int) -> tuple[dict, dict]:
+    """Seed `s`'s (learning.jsonl record, what each metrics.jsonl record repeats) of a learning
+    phase's statistics (a mapping batched over seeds), as the observer writes them out
+    (`Learner.records`; every value, for an observer that does not learn)."""
+    one = {name: value[s] for name, value in stats.items()}
+    phase, iteration = (learner.records if learner is not None else every_value)(one)
+    return (
+        {name: _json_value(value) for name, value in phase.items()},
+        {name: _json_value(value) for name, value in iteration.items()},
+    )
 
 
-def _learning_records(stats, seeds, phase: int, seconds: float | None = None) -> list[dict]:
+def _learning_records(stats, seeds, phase: int, seconds: float | None, learner) -> list[dict]:
     """One record per seed of a learning phase's statistics (batched over seeds); `seconds` is
     the phase's wall time for all seeds together (compilation included the first time)."""
     stats = jax.tree.map(np.asarray, stats)
-    records = []
-    for s, seed in enumerate(seeds):
-        used = int(stats.epochs_used[s])
-        records.append(
-            {
-                "seed": seed,
-                "phase": phase,
-                "epochs_used": used,
-                "best_epoch": int(stats.best_epoch[s]),
-                "steps_per_epoch": int(stats.steps_per_epoch[s]),
-                "sgd_steps": used * int(stats.steps_per_epoch[s]),
-                **_phase_statistics(stats, s),
-                "val_recon_history": _json_value(stats.val_recon_history[s][:used]),
-                "wall_s": None if seconds is None else round(seconds, 3),
-            }
-        )
-    return records
+    return [
+        {
+            "seed": seed,
+            "phase": phase,
+            **_statistics_records(learner, stats, s)[0],
+            "wall_s": None if seconds is None else round(seconds, 3),
+        }
+        for s, seed in enumerate(seeds)
+    ]
 
 
 def _read_metrics(path: pathlib.Path, lines: int) -> list[dict]:

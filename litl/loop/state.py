@@ -79,7 +79,7 @@ class LoopState:
       design: φ, (R,) Young's modulus of each design region.
       controller_optimizer: Adam state of θ.
       design_optimizer: Adam state of φ.
-      observer: Θ, `AutoencoderParams` (vae/ae), `KMeansObserver` (kmeans) or a () zero (none).
+      observer: Θ, the observer's parameters (a pytree its `init` made).
       observer_optimizer: Adam state of Θ's network for the simultaneous ablation (else empty).
       buffer: the replay buffer of grid velocity snapshots.
       key: (2,) uint32 raw PRNG key data (plain arrays checkpoint and compare bitwise).

@@ -167,7 +167,11 @@ def plot_recon_sgd(
             first = True
             for run in group.runs:
                 for seed in sorted({r["seed"] for r in run.learning}):
-                    phases = sorted((r for r in run.learning if r["seed"] == seed), key=lambda r: r["phase"])
+                    # Phases that learn by SGD steps (an autoencoder's) have a history per epoch.
+                    phases = sorted(
+                        (r for r in run.learning if r["seed"] == seed and "val_recon_history" in r),
+                        key=lambda r: r["phase"],
+                    )
                     x, y, start = [], [], 0
                     for phase in phases:
                         history = [np.nan if v is None else v for v in phase["val_recon_history"]]

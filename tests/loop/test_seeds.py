@@ -30,7 +30,7 @@ def episode_of(algorithm, batched):
         state, stats = bootstrap(state)
         state, first = optimize(state)
         state, second = optimize(state)
-        return state, (first["task_loss"], second["task_loss"], stats.recon_loss_val)
+        return state, (first["task_loss"], second["task_loss"], stats["recon_loss_val"])
 
     return one_episode
 

@@ -6,10 +6,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.loop import learning, replay_buffer
-from litl.loop.learning import LearningConfig
+from litl.config import LearningConfig
+from litl.loop import replay_buffer
 from litl.loop.replay_buffer import ReplayBuffer
+from litl.loop.retraining import soft_update
 from litl.models import vae
+from litl.observers import autoencoder_learning as learning
 
 GRID = (32, 32)
 CAPACITY = 40
@@ -192,14 +194,14 @@ def test_vmap_over_seeds_equals_separate_runs(two_params, x64):
 def test_soft_update(two_params):
     target = two_params[0].replace(scale=jnp.asarray(2.0))
     online = two_params[1].replace(scale=jnp.asarray(4.0))
-    assert_trees_equal(learning.soft_update(target, online, 1.0), online)
-    assert_trees_equal(learning.soft_update(target, online, 0.0), target)
-    half = jax.jit(learning.soft_update)(target, online, 0.5)
+    assert_trees_equal(soft_update(target, online, 1.0), online)
+    assert_trees_equal(soft_update(target, online, 0.0), target)
+    half = jax.jit(soft_update)(target, online, 0.5)
     assert float(half.scale) == 3.0
     for h, t, o in zip(*(jax.tree.leaves(p) for p in (half, target, online)), strict=True):
         np.testing.assert_allclose(h, (t + o) / 2, rtol=1e-6, atol=1e-7)
     with pytest.raises(ValueError, match=r"alpha must be in \[0, 1\]"):
-        learning.soft_update(target, online, 1.5)
+        soft_update(target, online, 1.5)
 
 
 @pytest.mark.parametrize(

@@ -1,5 +1,5 @@
-"""Learning phase of Algorithm 1: train the observer copy Θ′ on the replay buffer, then the target
-update Θ ← α·Θ′ + (1 − α)·Θ.
+"""The autoencoder observer's learning phase (Algorithm 1): train the copy Θ′ on the replay buffer
+(the loop's `litl.loop.retraining` then moves Θ toward it).
 
 Written for one seed and batched with `jax.vmap`. The buffer has a static capacity and a dynamic
 `count`, so the train/validation split, the minibatches and early stopping are all masks:
@@ -114,6 +114,13 @@ class LearningStats:
     if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
 
         def replace(self, **changes: Any) -> Self: ...
+
+    # A mapping of named values, as the loop takes an observer's statistics (`dict(stats)`).
+    def keys(self) -> tuple[str, ...]:
+        return tuple(field.name for field in dataclasses.fields(self))
+
+    def __getitem__(self, name: str) -> jnp.ndarray:
+        return getattr(self, name)
 
 
 @struct.dataclass
@@ -482,18 +489,3 @@ class LearningPhase:
         )
         best = params.replace(network=final.best_network)
         return best, self.statistics(best, buffer, split, final, steps_per_epoch)
-
-
-def soft_update(target: AutoencoderParams, online: AutoencoderParams, alpha) -> AutoencoderParams:
-    """Target update Θ ← α·Θ′ + (1 − α)·Θ over every leaf (network weights and scale).
-
-    Args:
-      target: Θ, the observer used during episodes.
-      online: Θ′, the copy trained in the learning phase.
-      alpha: step size in [0, 1] (a Python number is checked; an array, e.g. per seed, is not).
-        α = 1 returns `online`, α = 0 returns `target`.
-    """
-    if isinstance(alpha, (int, float)) and not 0.0 <= alpha <= 1.0:
-        raise ValueError(f"alpha must be in [0, 1], got {alpha!r}")
-    # Polyak averaging, alpha * new + (1 - alpha) * old: exact at alpha = 1 (and at 0).
-    return optax.incremental_update(online, target, alpha)

@@ -1,0 +1,148 @@
+"""The autoencoder observers (`vae`, `ae`): the paper's learned representation of the grid field.
+
+A convolutional (variational) autoencoder of the grid velocity field in a window around the robot;
+the controller reads its encoder means. Its learning phase (`autoencoder_learning`) trains a copy
+on the replay buffer with early stopping; its statistics are `LearningStats`'s values; its pictures
+are snapshots with their codes and reconstructions (Fig. 1), decoded latent sweeps (Fig. 8) and a
+saliency animation.
+"""
+
+from __future__ import annotations
+
+import pathlib
+from collections.abc import Mapping
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from litl.models import vae
+from litl.models.window import Window
+from litl.observers.autoencoder_learning import LearningStats, make_learning_phase
+from litl.observers.interface import Learner, Observer
+
+SNAPSHOTS = 6  # the newest snapshots the pictures show
+
+
+def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
+    """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
+    settings, learning = config.observer.vae, config.loop.learning
+    window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
+    model = vae.ConvAutoencoder(
+        window.shape,
+        latent_dim=settings.latent_dim,
+        channels=settings.channels,
+        activation=settings.activation.value,
+        variational=variational,
+    )
+    adam = optax.adam(learning.learning_rate)
+    learner = Learner(
+        window=window,
+        phase=make_learning_phase(model, learning),
+        step=vae.make_train_step(model, adam, learning.beta, learning.momentum_weight),
+        optimizer_init=lambda params: adam.init(params.network),
+        empty_statistics=lambda dtype, dim: dict(empty_statistics(dtype, learning.max_epochs, dim)),
+        records=records,
+        reconstruct=lambda params, fields: reconstruct(model, params, fields),
+        model=model,
+    )
+    return Observer(
+        n_features=settings.latent_dim,
+        init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
+        features=vae.make_observer(model, window),
+        learner=learner,
+        settings="vae",
+        pictures=pictures,
+    )
+
+
+def empty_statistics(dtype, max_epochs: int, dim: int) -> LearningStats:
+    """The statistics before the first learning phase: NaN losses, no epochs."""
+    nan = jnp.full((), jnp.nan, dtype)
+    zero = jnp.zeros((), jnp.int32)
+    return LearningStats(
+        recon_loss_train=nan,
+        recon_loss_val=nan,
+        recon_explained=nan,
+        active_units=zero,
+        velocity_r2=jnp.full((dim,), jnp.nan, dtype),
+        kl=nan,
+        val_loss=nan,
+        epochs_used=zero,
+        best_epoch=zero,
+        val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
+        steps_per_epoch=zero,
+        update_accepted=jnp.ones((), bool),
+    )
+
+
+# What every metrics.jsonl record repeats of the phase whose observer is in use, and learning.jsonl
+# of each phase (with its epochs and history).
+_REPEATED = ("recon_loss_train", "recon_loss_val", "recon_explained", "active_units", "velocity_r2", "kl")
+
+
+def records(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
+    """(learning.jsonl's record of a phase, what each metrics.jsonl record repeats of it), from
+    one seed's statistics (numpy values)."""
+    used = int(statistics["epochs_used"])
+    steps_per_epoch = int(statistics["steps_per_epoch"])
+    repeated = {name: statistics[name] for name in (*_REPEATED, "update_accepted")}
+    phase = {
+        "epochs_used": used,
+        "best_epoch": int(statistics["best_epoch"]),
+        "steps_per_epoch": steps_per_epoch,
+        "sgd_steps": used * steps_per_epoch,
+        **repeated,
+        "val_recon_history": np.asarray(statistics["val_recon_history"])[:used],
+    }
+    return phase, {**repeated, "learning_epochs": statistics["epochs_used"]}
+
+
+def reconstruct(model: vae.ConvAutoencoder, params: vae.AutoencoderParams, fields):
+    """(B, *window, d) the reconstructions of raw fields (encoder means decoded, in the fields'
+    units)."""
+    code = model.apply(params.network, fields / params.scale, method="encode")[0]
+    return model.apply(params.network, code, method="decode") * params.scale
+
+
+def pictures(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> list[pathlib.Path]:
+    """snapshots.png (Fig. 1), latent_sweeps.png (Fig. 8) and saliency.gif of one seed's final
+    state (nothing while its buffer is empty)."""
+    import matplotlib.pyplot as plt
+
+    from litl.loop.replay_buffer import newest
+    from litl.viz.latent import draw_latent_sweeps, draw_snapshots
+    from litl.viz.saliency import animate_saliency
+
+    model = algorithm.observer.learner.model
+    snapshots = newest(state.buffer, SNAPSHOTS)
+    if len(snapshots) == 0:
+        return []
+    written = []
+    for name, make in (
+        ("snapshots.png", lambda path: draw_snapshots(model, state.observer, snapshots, path)),
+        ("latent_sweeps.png", lambda path: draw_latent_sweeps(model, state.observer, path=path)),
+    ):
+        figure = make(run_dir / name)
+        plt.close(figure)
+        written.append(run_dir / name)
+    times = None
+    if algorithm.controller.period is not None:
+        # The newest snapshots are the latest rollout's last ones: snapshot k of a rollout is the
+        # field after step (k + 1) * stride, which the policy reads at that time.
+        stride = min(stride, algorithm.steps)
+        last = algorithm.steps // stride
+        times = (last - len(snapshots) + 1 + np.arange(len(snapshots))) * stride * robot.config.dt
+    written.append(
+        animate_saliency(
+            model,
+            state.observer,
+            algorithm.controller,
+            state.controller,
+            snapshots,
+            run_dir / "saliency.gif",
+            times=times,
+        )
+    )
+    return written

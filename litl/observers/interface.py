@@ -1,0 +1,158 @@
+"""The observer interface: what a closed-loop controller sees, as a small bundle of pure functions.
+
+An `Observer` is to Algorithm 1 what an optax `GradientTransformation` is to an optimizer loop: a
+frozen bundle of functions that the algorithm calls without knowing which observer it is.
+
+    observer = litl.observers.make("vae", robot, config, sim_config, dtype)
+    params = observer.init(key, seed)                          # Θ
+    features = observer.features(params, state, grid_velocity)  # (observer.n_features,)
+
+A learned observer also has a `Learner`: the grid window its snapshots are cropped to, its learning
+phase (returning its statistics: a mapping of named values), how those statistics are written,
+its single SGD step (the simultaneous ablation) and, where it has one, its reconstruction. Any
+observer may draw its own pictures of a finished run (`Observer.pictures`). Observers are made by
+factories registered by name (`register`); `observer.kind` (`litl.config.ObserverConfig`, the
+CLI's `observer=`) picks one. Each built-in observer is one module of `litl.observers`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import jax
+
+from litl.config import SettingsError
+from litl.models.window import Window
+
+
+def every_value(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
+    """`Learner.records`'s default: every named value, in learning.jsonl and in metrics.jsonl."""
+    return dict(statistics), dict(statistics)
+
+
+@dataclasses.dataclass(frozen=True)
+class Learner:
+    """How a learned observer learns from grid velocity snapshots.
+
+    Attributes:
+      window: the grid window (around the particle centroid) the snapshots are cropped to; the
+        replay buffer stores snapshots of `window.shape`.
+      phase: ``phase(params, buffer, key) -> (params', statistics)``, one learning phase on a
+        copy of the parameters (pure, vmappable over seeds); statistics: a mapping of names to
+        arrays with the keys of `empty_statistics` (the loop adds ``update_accepted``).
+      step: ``step(params, opt_state, snapshots, key) -> (params, opt_state, losses)``, one SGD step
+        on a rollout's snapshots (the simultaneous ablation; losses has "recon"); None: the
+        observer learns in phases only (`loop.schedule=simultaneous` is refused).
+      optimizer_init: ``optimizer_init(params) -> opt_state`` for `step`.
+      empty_statistics: ``empty_statistics(dtype, dim) -> {name: array}``, the statistics before
+        the first phase (NaN where nothing was measured yet).
+      records: ``records(statistics) -> (phase_record, iteration_record)``: from one seed's
+        statistics (numpy values, ``update_accepted`` included), what learning.jsonl records of
+        the phase and what every metrics.jsonl record repeats of it; default: every value in both.
+      reconstruct: ``reconstruct(params, fields) -> fields`` (B, *window, d) for the live log's
+        snapshot strip; None if it has none.
+      model: the network, if any (for pictures of the representation).
+    """
+
+    window: Window
+    phase: Callable[[Any, Any, jax.Array], tuple[Any, Mapping[str, Any]]]
+    step: Callable | None
+    optimizer_init: Callable[[Any], Any]
+    empty_statistics: Callable[[Any, int], dict[str, Any]]
+    records: Callable[[Mapping[str, Any]], tuple[dict, dict]] = every_value
+    reconstruct: Callable[[Any, Any], Any] | None = None
+    model: Any = None
+
+    def reporting_epochs(self, on_epoch) -> Learner:
+        """This learner with a phase that calls `on_epoch(epoch, validation_loss)` after every
+        epoch (from inside the compiled phase), where the phase is a dataclass with an
+        `on_epoch` field (as the autoencoder's is); any other phase is kept as it is."""
+        phase = self.phase
+        if not dataclasses.is_dataclass(phase) or "on_epoch" not in {
+            f.name for f in dataclasses.fields(phase)
+        }:
+            return self
+        return dataclasses.replace(self, phase=dataclasses.replace(self.phase, on_epoch=on_epoch))
+
+
+@dataclasses.dataclass(frozen=True)
+class Observer:
+    """An observer's pure functions (see the module docstring).
+
+    Attributes:
+      n_features: length of the feature vector.
+      init: ``init(key, seed) -> params`` (Θ; a pytree the loop checkpoints and vmaps over seeds).
+      features: ``features(params, state, grid_velocity) -> (n_features,)``, jittable, used at
+        every simulation step.
+      learner: how it learns from snapshots; None for an observer fixed at init.
+      settings: the section of `litl.config.ObserverConfig` it reads (``"vae"`` for
+        ``observer.vae.*``), or None.
+      pictures: ``pictures(robot, algorithm, state, run_dir, stride) -> [paths]``: the pictures
+        of its representation for one seed's final `LoopState` (`litl.pictures` calls it); None:
+        no pictures.
+    """
+
+    n_features: int
+    init: Callable[[jax.Array, int], Any]
+    features: Callable[[Any, Any, jax.Array], jax.Array]
+    learner: Learner | None = None
+    settings: str | None = None
+    pictures: Callable[..., list] | None = None
+
+    @property
+    def learned(self) -> bool:
+        return self.learner is not None
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        """The settings it depends on, as sections of `litl.config.Config`: its own section
+        and, if it learns, the learning phase (``("observer.vae", "loop.learning")``). Every key
+        in them counts: reports pool two runs only where all of them agree."""
+        return ((f"observer.{self.settings}",) if self.settings else ()) + (
+            ("loop.learning",) if self.learned else ()
+        )
+
+
+# factory(robot, config, sim_config, dtype) -> Observer; config: the run's `litl.config.Config`
+Factory = Callable[..., Observer]
+_FACTORIES: dict[str, Factory] = {}
+
+
+def register(name: str, factory: Factory, replace: bool = False) -> None:
+    """Make `factory(robot, config, sim_config, dtype) -> Observer` selectable as `name`
+    (`Config.observer.kind`, CLI `observer=<name>` or `observer.kind=<name>`)."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"an observer's name must be a non-empty string, got {name!r}")
+    if name in _FACTORIES and not replace:
+        raise ValueError(f"an observer named {name!r} is already registered; pass replace=True")
+    if not callable(factory):
+        raise ValueError(f"factory must be callable, got {factory!r}")
+    _FACTORIES[name] = factory
+
+
+def names() -> tuple[str, ...]:
+    """The registered observers' names."""
+    return tuple(_FACTORIES)
+
+
+def make(name: str, robot, config, sim_config, dtype) -> Observer:
+    """The observer `name` for `robot` under the loop `config`."""
+    if name not in _FACTORIES:
+        raise ValueError(f"unknown observer {name!r}; choose one of {names()}")
+    return _FACTORIES[name](robot, config, sim_config, dtype)
+
+
+def check_kind(config) -> None:
+    """Raise `SettingsError` unless `config.observer.kind` names a registered observer."""
+    kind, module = config.observer.kind, config.observer.module
+    if kind not in _FACTORIES:
+        hint = (
+            f"; observer.module={module!r} registered no observer of that name"
+            if module
+            else "; an observer of your own: observer.kind=<name> observer.module=<module that registers it>"
+        )
+        raise SettingsError(
+            f"observer.kind={kind!r}: unknown observer; choose one of {list(names())}{hint}", "observer.kind"
+        )
