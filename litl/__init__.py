@@ -26,7 +26,19 @@ except _backend.DeterminismError as _error:
         raise SystemExit(2) from None
     raise
 
-_SUBPACKAGES = ("backend", "sim", "robots", "models", "loop", "viz", "report", "claims", "config", "errors")
+_SUBPACKAGES = (
+    "backend",
+    "sim",
+    "robots",
+    "models",
+    "observers",
+    "loop",
+    "viz",
+    "report",
+    "claims",
+    "config",
+    "errors",
+)
 
 __all__ = [*_SUBPACKAGES, "__version__"]
 

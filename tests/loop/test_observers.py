@@ -34,6 +34,7 @@ def test_builtin_observers_through_the_interface():
         ("vae", 4, True),
         ("ae", 4, True),
         ("kmeans", 2 * 3 * 2, False),
+        ("pca", 8, True),
         ("none", 0, False),
     ):
         observer = observers.make(name, robot, tiny_config(observer={"kind": name}), config, jnp.float32)
@@ -81,7 +82,8 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     assert settings["observer"] == {"learned": False, "reads": ["observer.vae"]}
     assert settings["config"]["observer"]["kind"] == "random_projection"
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
-    assert len(records) == 2 and all(r["recon_loss_val"] is None for r in records)
+    # It does not learn: no statistics of its own in the records (the loop's update_accepted only).
+    assert len(records) == 2 and all("recon_loss_val" not in r and r["update_accepted"] for r in records)
     for name in ("robot.png", "robot.gif", "task_loss.png"):
         assert (run_dir / name).stat().st_size > 0, name
     report = subprocess.run(
@@ -94,3 +96,85 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     )
     assert report.returncode == 0, report.stderr[-3000:]
     assert "random_projection" in (run_dir / "summary.md").read_text()
+
+
+def mean_speed_observer(robot, config, sim_config, dtype):
+    """A toy learning observer, defined here and registered from the test: its one feature is the
+    window's mean speed over a scale it learns (each phase: the buffer's mean speed)."""
+    from litl.loop.replay_buffer import valid_mask
+    from litl.models.window import Window
+    from litl.observers import Learner, Observer
+
+    window = Window.around(sim_config.grid_shape, sim_config.dx, 0.5)
+
+    def features(scale, state, grid_velocity):
+        field = window.crop(grid_velocity, jnp.mean(state.x, axis=0))
+        return jnp.mean(jnp.linalg.norm(field, axis=-1))[None] / scale
+
+    def phase(scale, buffer, key):
+        mask = valid_mask(buffer)
+        speeds = jnp.mean(
+            jnp.linalg.norm(buffer.fields, axis=-1), axis=tuple(range(1, buffer.fields.ndim - 1))
+        )
+        mean = jnp.sum(jnp.where(mask, speeds, 0.0)) / jnp.maximum(jnp.sum(mask), 1)
+        learned = jnp.maximum(mean, 1e-6).astype(scale.dtype)
+        return learned, {"mean_speed": mean, "snapshots": jnp.sum(mask)}
+
+    def pictures(robot, algorithm, state, run_dir, stride):
+        path = run_dir / "mean_speed.txt"
+        path.write_text(f"{float(state.observer):.6g}\n")
+        return [path]
+
+    learner = Learner(
+        window=window,
+        phase=phase,
+        step=None,
+        optimizer_init=lambda scale: (),
+        empty_statistics=lambda dtype, dim: {
+            "mean_speed": jnp.full((), jnp.nan, dtype),
+            "snapshots": jnp.zeros((), jnp.int32),
+        },
+    )
+    return Observer(
+        n_features=1,
+        init=lambda key, seed: jnp.ones((), dtype),
+        features=features,
+        learner=learner,
+        pictures=pictures,
+    )
+
+
+def test_a_learning_observer_defined_here_runs_through_the_loop_and_the_pictures(tmp_path):
+    from litl.loop.run import run
+    from litl.pictures import draw_run
+
+    observers.register("mean_speed", mean_speed_observer, replace=True)
+    config = tiny_config(observer={"kind": "mean_speed"}, seeds=1)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    phases = [json.loads(line) for line in (tmp_path / "learning.jsonl").read_text().splitlines()]
+    assert [p["phase"] for p in phases] == [0, 1, 2]
+    assert all(
+        set(p) == {"seed", "phase", "mean_speed", "snapshots", "update_accepted", "wall_s"} for p in phases
+    )
+    assert phases[-1]["snapshots"] > phases[0]["snapshots"] > 0
+    # Its statistics are repeated in every iteration's record, as written out by its learner.
+    assert all("mean_speed" in r for r in result.metrics)
+    assert float(result.state.observer[0]) != 1.0  # it learned a scale
+    written = draw_run(tiny_robot(), config, result, tmp_path, animation=False)
+    assert (tmp_path / "mean_speed.txt") in written
+
+
+def test_pca_runs_through_the_loop_report_and_pictures(tmp_path):
+    from litl.loop.run import run
+    from litl.pictures import draw_run
+
+    config = tiny_config(observer={"kind": "pca", "pca": {"components": 3}}, seeds=1)
+    result = run(tiny_robot(), config, tmp_path, progress=False)
+    settings = json.loads((tmp_path / "run.json").read_text())
+    assert settings["observer"] == {"learned": True, "reads": ["observer.pca", "loop.learning"]}
+    phases = [json.loads(line) for line in (tmp_path / "learning.jsonl").read_text().splitlines()]
+    assert len(phases) == 3 and all(0.0 <= p["recon_explained"] <= 1.0 for p in phases[1:])
+    assert all(r["recon_loss_val"] is not None for r in result.metrics)
+    written = draw_run(tiny_robot(), config, result, tmp_path, animation=False)
+    for name in ("pca.png", "recon_loss.png", "task_loss.png"):
+        assert (tmp_path / name) in written, name
