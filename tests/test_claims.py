@@ -104,15 +104,31 @@ def test_a_claim_without_runs_says_no_data():
 
 def test_every_claim_names_variants_its_panel_runs():
     for c in CLAIMS:
-        panel_cells = [cell for cell in cells() if cell.panel.name == c.panel]
+        suite = cells(comparators=("pca",)) if c.comparator else cells()
+        panel_cells = [cell for cell in suite if cell.panel.name == c.panel]
         names = {cell.variant.name for cell in panel_cells}
         assert c.a in names and (c.b is None or c.b in names), c.id
     assert {cell.method for cell in cells()} == {"litl", "paper"}
 
 
+def test_the_pca_comparator_is_off_by_default_and_judged_only_where_it_ran():
+    from litl.claims.tables import verdicts
+
+    assert not [cell for cell in cells() if cell.variant.name == "pca"]
+    added = [cell.name for cell in cells(comparators=("pca",)) if cell.variant.name == "pca"]
+    assert added == ["litl/fig4b/pca", "litl/fig4d/pca", "paper/fig4b/pca", "paper/fig4d/pca"]
+    biped = {"vae": group("vae", LOW), "kmeans": group("kmeans", HIGH), "sinusoid": group("sinusoid", HIGH)}
+    without = [v.claim.id for v in verdicts({("litl", "fig4b"): biped}, ["litl"], cut=None)]
+    assert "4b-vae-beats-pca" not in without
+    with_pca = verdicts({("litl", "fig4b"): {**biped, "pca": group("pca", HIGH)}}, ["litl"], cut=None)
+    (pca,) = [v for v in with_pca if v.claim.id == "4b-vae-beats-pca"]
+    assert pca.verdict == HOLDS and len(with_pca) == len(without) + 1
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
+        (["--comparators", "lasso"], "unknown comparator"),
         (["--panels", "fig9"], "unknown panel"),
         (["--methods", "mine"], "unknown method"),
         (["--seeds", "1"], "at least 2"),

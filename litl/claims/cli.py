@@ -50,6 +50,13 @@ def _parser() -> argparse.ArgumentParser:
         help="comma-separated methods (default: litl,paper)",
     )
     parser.add_argument(
+        "--comparators",
+        type=_names,
+        default=(),
+        help="optional comparators added to the biped and bunny panels, with their claims "
+        "(pca: does the VAE's nonlinearity matter?; default: none)",
+    )
+    parser.add_argument(
         "--scale",
         choices=sorted(SCALES),
         default="demo",
@@ -88,7 +95,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
         raise ClaimsError(f"--seeds must be at least 2 (a claim needs an interval); got {seeds}")
     if not 0 < args.level < 1:
         raise ClaimsError(f"--level must lie in (0, 1), e.g. 0.9; got {args.level}")
-    suite = cells(args.panels, args.methods)
+    suite = cells(args.panels, args.methods, args.comparators)
     out = pathlib.Path(args.out)
     configs: dict[str, Config] = {}
 

@@ -88,6 +88,9 @@ PANELS = (
     ),
 )
 PANEL_NAMES = tuple(panel.name for panel in PANELS)
+# Optional comparators (off by default, so the suite's time is unchanged): a variant added to the
+# panels named, with its claims in `litl.claims.verdicts` (``comparator=True``).
+COMPARATORS = {"pca": (Variant("pca", ("variant=pca",)), ("fig4b", "fig4d"))}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,8 +146,19 @@ class Cell:
         ]
 
 
-def cells(panels: Sequence[str] = PANEL_NAMES, methods: Sequence[str] = ("litl", "paper")) -> list[Cell]:
-    """The suite's cells for the named panels and methods, method by method."""
+def cells(
+    panels: Sequence[str] = PANEL_NAMES,
+    methods: Sequence[str] = ("litl", "paper"),
+    comparators: Sequence[str] = (),
+) -> list[Cell]:
+    """The suite's cells for the named panels and methods, method by method, with the optional
+    `comparators`' variants (`COMPARATORS`) added to their panels."""
+    unknown_comparators = [name for name in comparators if name not in COMPARATORS]
+    if unknown_comparators:
+        raise ClaimsError(
+            f"unknown comparator(s) {unknown_comparators}; choose from {list(COMPARATORS)} "
+            "(--comparators pca)"
+        )
     unknown = [name for name in panels if name not in PANEL_NAMES]
     if unknown:
         raise ClaimsError(
@@ -156,12 +170,16 @@ def cells(panels: Sequence[str] = PANEL_NAMES, methods: Sequence[str] = ("litl",
         raise ClaimsError(f"unknown method(s) {bad}; choose from {known} (--methods litl,paper)")
     if not panels or not methods:
         raise ClaimsError("the suite is empty: name at least one panel and one method")
+    extra = {
+        panel: [COMPARATORS[name][0] for name in comparators if panel in COMPARATORS[name][1]]
+        for panel in PANEL_NAMES
+    }
     return [
         Cell(panel, variant, method)
         for method in methods
         for panel in PANELS
         if panel.name in panels
-        for variant in panel.variants
+        for variant in (*panel.variants, *extra[panel.name])
     ]
 
 

@@ -108,6 +108,7 @@ def verdicts(
             for method in methods
             for claim in CLAIMS
             if claim.panel in panels
+            and (not claim.comparator or claim.b in groups.get((method, claim.panel), {}))
         ]
     )
     return results if cut is None else with_cuts(results, groups, level, cut)
@@ -370,14 +371,16 @@ def plot_panels(
         ]
         if not runs:
             continue
-        colors = figures.label_colors([v.name for v in panel.variants])
+        # The panel's variants, then any optional comparator that was run (`--comparators`).
+        names = list(dict.fromkeys([v.name for v in panel.variants] + [n for _, by in runs for n in by]))
+        colors = figures.label_colors(names)
         subplots = [
             (
                 f"{panel.title}\nmethod={method}",
                 [
                     (curve, "-", curve.label)
                     for curve in curves(
-                        [by_variant[v.name] for v in panel.variants if v.name in by_variant],
+                        [by_variant[name] for name in names if name in by_variant],
                         "task_loss",
                         level,
                     )
