@@ -7,8 +7,9 @@ import json
 import pathlib
 import shlex
 import sys
+from collections.abc import Callable
 
-from litl.claims.suite import PANEL_NAMES, SCALES, Cell, cells, run_suite
+from litl.claims.suite import PANEL_NAMES, SCALES, Cell, ClaimsError, Scale, cells, run_suite
 from litl.claims.tables import (
     claims_markdown,
     load_groups,
@@ -60,10 +61,18 @@ def _parser() -> argparse.ArgumentParser:
         "--scale",
         choices=sorted(SCALES),
         default="demo",
-        help="demo: the suite of record (default); smoke: seconds per run",
+        help="demo: the suite of record (default; dx 1/64, 6 x 10 iterations); paper: the presets "
+        "as they are (dx 1/128, 20 x 10 iterations: a GPU's work); smoke: seconds per run",
     )
     parser.add_argument(
-        "--seeds", type=int, default=None, help="seeds per run (default: the scale's, 10 at demo)"
+        "--seeds", type=int, default=None, help="seeds per run (default: the scale's, 10 at demo and paper)"
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="cells run at once, each in a process of its own sharing the device (default: 1, in "
+        "this process); refused when the plan's largest cells would not fit the device's memory",
     )
     parser.add_argument(
         "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
@@ -114,7 +123,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
         return 0
     check_sizes(out, suite, config_of)
     if not args.report_only:
-        run_suite(out, suite, scale, seeds)
+        _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
     groups, unfinished = load_groups(out, suite, config_of)
     results = verdicts(groups, args.methods, args.level)
     timings_path = out / "timings.json"
@@ -129,3 +138,34 @@ def _main(args: argparse.Namespace, command: str) -> int:
         print(f"{v.claim.id:<{width}}  {v.method:<5}  {v.verdict}")
     print(out / "claims.md")
     return 0
+
+
+def _plan_and_run(
+    out: pathlib.Path,
+    suite: list[Cell],
+    scale: Scale,
+    seeds: int,
+    jobs: int,
+    config_of: Callable[[Cell], Config],
+) -> None:
+    """Print the plan (each unfinished cell's estimated time, the total), refuse a job count the
+    device cannot hold, then run the suite."""
+    import os
+
+    from litl.claims import plan
+    from litl.sim.memory import device_memory_bytes
+
+    if jobs < 1:
+        raise ClaimsError(f"--jobs must be at least 1; got {jobs}")
+    cells_env = dict(os.environ)
+    if jobs > 1:  # this process measures only: it must leave the device's memory to the cells
+        os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
+        os.environ.setdefault("XLA_PYTHON_CLIENT_ALLOCATOR", "platform")
+    planned = plan.plan(out, suite, config_of)
+    if not planned:
+        return
+    print(f"litl.claims: the plan ({scale.name} scale, {seeds} seeds):")
+    for line in plan.describe(planned, jobs):
+        print(line)
+    plan.check_jobs(planned, jobs, device_memory_bytes())
+    run_suite(out, suite, scale, seeds, jobs=jobs, env=cells_env)

@@ -113,6 +113,8 @@ SCALES = {
     # took 6.6 h for the whole suite; the method=paper runs of 10 x 10 cut after 6 episodes give
     # every one of their verdicts (after 5, one changes): docs/guide/claims.md.
     "demo": Scale("demo", 10, ("robot.resolution=demo", "loop.episodes=6", "loop.iterations=10")),
+    # The presets as they are: dx 1/128 in 2D, 20 episodes x 10 iterations (`litl/conf/experiment`).
+    "paper": Scale("paper", 10, ()),
     "smoke": Scale("smoke", 2, ("+scale=smoke",)),
 }
 
@@ -238,18 +240,28 @@ def run_suite(
     scale: Scale,
     seeds: int,
     say: Callable[[str], None] = print,
+    jobs: int = 1,
+    env: dict[str, str] | None = None,
 ) -> dict[str, str]:
-    """Run every unfinished cell of `suite` under `out`, one after another.
+    """Run every unfinished cell of `suite` under `out`: one after another in this process, or
+    `jobs` at once, each in a process of its own (`python -m litl`; on a GPU each reserves its
+    share of the device's memory).
 
     Each cell's wall time goes into `<out>/timings.json` ({cell name: seconds}): a cell
     stopped with Ctrl-C or `kill PID` (SIGINT, SIGTERM) keeps the time it ran, and resuming it
-    adds to that; one killed otherwise (SIGKILL) loses the time of its interrupted part.
+    adds to that; one killed otherwise (SIGKILL) loses the time of its interrupted part. A
+    stopped suite resumes every unfinished cell (from its last checkpoint) and keeps every
+    finished one. `env`: the cells' processes' environment (default: this process's).
 
     Returns:
       {cell name: "ran" | "done already"}.
     """
+    if jobs < 1:
+        raise ClaimsError(f"--jobs must be at least 1; got {jobs}")
     with _stopped_by_sigterm():
-        return _run_cells(out, suite, scale, seeds, say)
+        if jobs == 1:
+            return _run_cells(out, suite, scale, seeds, say)
+        return _run_cells_in_processes(out, suite, scale, seeds, say, jobs, env)
 
 
 @contextlib.contextmanager
@@ -304,4 +316,83 @@ def _run_cells(
             timings_path.write_text(json.dumps(timings, indent=1) + "\n")
         status[cell.name] = "ran"
         jax.clear_caches()  # one cell's compiled programs are no use to the next
+    return status
+
+
+def _run_cells_in_processes(
+    out: str | os.PathLike[str],
+    suite: list[Cell],
+    scale: Scale,
+    seeds: int,
+    say: Callable[[str], None],
+    jobs: int,
+    env: dict[str, str] | None,
+) -> dict[str, str]:
+    import subprocess
+    import sys
+
+    from litl.app import compose
+
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    timings_path = out / "timings.json"
+    timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
+    env = dict(os.environ if env is None else env)
+    # Each process reserves its share of a GPU's memory (JAX's default is 75% for one).
+    env.setdefault("XLA_PYTHON_CLIENT_MEM_FRACTION", f"{0.9 / jobs:.3f}")
+    status: dict[str, str] = {}
+    waiting: list[tuple[int, Cell, list[str]]] = []
+    for number, cell in enumerate(suite, 1):
+        overrides = cell.overrides(scale, seeds)
+        if finished_records(cell.run_dir(out)) >= expected_records(compose(overrides)):
+            status[cell.name] = "done already"
+        else:
+            waiting.append((number, cell, overrides))
+    running: dict[str, tuple[subprocess.Popen[bytes], float, float]] = {}
+    failed: list[str] = []
+
+    def record(name: str, before: float, start: float) -> None:
+        timings[name] = round(before + time.perf_counter() - start, 1)
+        timings_path.write_text(json.dumps(timings, indent=1) + "\n")
+
+    try:
+        while waiting or running:
+            while waiting and len(running) < jobs:
+                number, cell, overrides = waiting.pop(0)
+                run_dir = cell.run_dir(out)
+                run_dir.mkdir(parents=True, exist_ok=True)
+                say(
+                    f"litl.claims: [{number}/{len(suite)}] {cell.name}: python -m litl "
+                    f"{' '.join(overrides)} hydra.run.dir={run_dir}"
+                )
+                before = timings.get(cell.name, 0.0) if finished_records(run_dir) else 0.0
+                log = open(run_dir / "claims.log", "ab")  # noqa: SIM115 (closed with the process)
+                process = subprocess.Popen(
+                    [sys.executable, "-m", "litl", *overrides, f"hydra.run.dir={run_dir}"],
+                    env=env,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                )
+                log.close()
+                running[cell.name] = (process, before, time.perf_counter())
+            for name, (process, before, start) in list(running.items()):
+                if process.poll() is None:
+                    continue
+                del running[name]
+                record(name, before, start)
+                if process.returncode:
+                    failed.append(name)
+                    say(f"litl.claims: {name} failed (exit {process.returncode}); see its claims.log")
+                else:
+                    status[name] = "ran"
+            time.sleep(0.5)
+    finally:  # stopped (Ctrl-C, SIGTERM): stop the cells under way, keep the time they ran
+        for name, (process, before, start) in running.items():
+            process.terminate()
+            process.wait()
+            record(name, before, start)
+    if failed:
+        raise ClaimsError(
+            f"{len(failed)} cell(s) failed: {failed}; their claims.log says why (rerun to resume)"
+        )
     return status
