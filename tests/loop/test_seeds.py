@@ -67,7 +67,7 @@ def test_learning_phases_run_one_seed_at_a_time_equal_the_vmapped_phases(x64):
     # The phases learned something, and each seed its own observer.
     learned = jax.tree.leaves(expected[0].observer)[0]
     assert not np.allclose(learned[0], learned[1])
-    assert np.all(np.asarray(expected[1].epochs_used) > 0)
+    assert np.all(np.asarray(expected[1]["epochs_used"]) > 0)
 
 
 def test_seeds_at_once_defaults_to_every_seed_and_refuses_bad_values():
