@@ -9,6 +9,8 @@ Parts, each in fresh processes that run this checkout (PYTHONPATH is set to it):
   tests   `pytest -m gpu`: physics, gradients, determinism, kill-and-resume, a run of each observer
   sim     benchmarks/sim_speed.py (walker2d, walker2d_vmap10, block3d_1m) in each determinism mode
   loop    benchmarks/loop_speed.py, the biped at dx 1/128 with 10 seeds, in each determinism mode
+  breakdown  benchmarks/loop_breakdown.py in litl's default mode: the bare simulation's
+          forward+backward against whole iterations (no observer, k-means, VAE), dx 1/128, 10 seeds
   demo    the demo (3 episodes, no pictures) twice in litl's default mode: the final losses must be
           the same bit for bit
 
@@ -34,7 +36,7 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
-PARTS = ("tests", "sim", "loop", "demo")
+PARTS = ("tests", "sim", "loop", "breakdown", "demo")
 EXPANDER = "--xla_gpu_enable_scatter_determinism_expander"
 MODES = {
     "off": {"LITL_DETERMINISM": "off"},
@@ -131,6 +133,21 @@ def check_loop(smoke: bool, modes: list[str], timeout: float) -> dict:
     return results
 
 
+def check_breakdown(smoke: bool, timeout: float) -> dict:
+    if smoke:
+        arguments = ["--seeds", "1", "--dx", "0.03125", "--steps", "40", "--repeats", "1"]
+    else:
+        arguments = ["--seeds", "10", "--dx", str(PAPER_DX), "--repeats", "3"]
+    command = [sys.executable, str(BENCHMARKS / "loop_breakdown.py"), *arguments, "--json"]
+    result = _run(command, _environment(), timeout)
+    found = _last_json(result["stdout"])
+    return {
+        "wall_s": result["wall_s"],
+        "programs": found,
+        **({} if found else {"error": result["stderr_tail"]}),
+    }
+
+
 def check_demo(smoke: bool, out: pathlib.Path, timeout: float) -> dict:
     overrides = ["+scale=smoke"] if smoke else ["loop.episodes=3"]
     overrides += ["output.pictures=false", "output.animation=false"]
@@ -197,6 +214,15 @@ def table(report: dict) -> str:
             cells.append("—" if value is None else f"{value:.4g} s (x{_ratio(value, base)})")
         if loop:
             lines.append(f"| loop {key} (dx 1/128, 10 seeds) | " + " | ".join(cells) + " |")
+    programs = (report.get("breakdown") or {}).get("programs") or []
+    bare = next((p["median_s"] for p in programs if p["program"] == "rollout_fb"), None)
+    for entry in programs:
+        lines.append(
+            f"| breakdown {entry['program']} ({entry['seeds']} seeds) | {entry['median_s']:.4g} s "
+            f"(x{_ratio(entry['median_s'], bare)} of the bare simulation) |"
+            + " |"
+            * (len(report["modes"]) - 1)
+        )
     if "tests" in report:
         tests = report["tests"]
         lines += ["", f"`pytest -m gpu`: {tests['summary']} ({tests['wall_s']:.0f} s)"]
@@ -229,6 +255,8 @@ def main(argv=None) -> int:
         report["sim"] = check_sim(args.smoke, args.modes, args.timeout)
     if "loop" in args.parts:
         report["loop"] = check_loop(args.smoke, args.modes, args.timeout)
+    if "breakdown" in args.parts:
+        report["breakdown"] = check_breakdown(args.smoke, args.timeout)
     if "demo" in args.parts:
         report["demo"] = check_demo(args.smoke, out, args.timeout)
     report["wall_s"] = round(time.perf_counter() - start, 1)
