@@ -12,7 +12,7 @@ import pytest
 import litl
 from litl import backend
 from litl.backend import DeterminismError, configure, requested_mode
-from litl.loop.run import run
+from litl.loop.run import RunDirectoryError, run
 from tests.loop.tiny import tiny_config, tiny_robot
 
 # Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
@@ -125,6 +125,11 @@ def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so
     settings = json.loads((tmp_path / "run.json").read_text())
     assert settings["backend"]["determinism"] == "on"  # what it started with stays
     assert [r["determinism"] for r in settings["resumed_on"]] == ["off"]
+    # A resume refused for other settings changes nothing, run.json included.
+    before = (tmp_path / "run.json").read_text()
+    with pytest.raises(RunDirectoryError, match="Nothing was changed"):
+        run(tiny_robot(), config.replace(seeds=2), tmp_path, progress=False)
+    assert (tmp_path / "run.json").read_text() == before
 
 
 class _FakeDevice:

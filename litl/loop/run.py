@@ -271,7 +271,6 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
                 f"no 'config'); it cannot be resumed. Choose a new run directory (`python -m "
                 f"litl.report` still reads it). Nothing was changed."
             )
-        _say_if_backend_changed(run_dir, found)
         # Settings recorded under keys that have moved since, and the observer's description,
         # which follows from them (what the report reads); the backend is not a setting.
         found = {**found, "config": upgrade(found["config"]), "observer": wanted["observer"]}
@@ -284,6 +283,7 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
                 f"{run_dir} holds a run with other settings (differences in {changed}); resume it "
                 f"with the same settings or choose a new run directory. Nothing was changed."
             )
+        _say_if_backend_changed(run_dir, json.loads(settings_file.read_text()))
     else:
         settings_file.write_text(json.dumps({**wanted, "backend": backend.record()}, indent=1))
     for name, text in config_files.items():
