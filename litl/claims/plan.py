@@ -4,7 +4,8 @@ Before a suite runs, one optimization iteration of each panel's first variant is
 timed (all its seeds, vmapped, on the device the runs will use), with the program's device memory
 from XLA's memory analysis. A cell's estimate is its iterations times its panel's iteration, plus
 one compilation; the other variants of a panel (k-means, sinusoids) are cheaper than its VAE, so
-the estimate is an upper bound for them. Cells run `jobs` at a time, longest first.
+the estimate is an upper bound for them. Cells run `jobs` at a time, in the suite's order
+(each starting when a job is free), as `litl.claims.suite.run_suite` runs them.
 """
 
 from __future__ import annotations
@@ -111,9 +112,10 @@ def check_jobs(planned: Sequence[PlannedCell], jobs: int, device_bytes: int | No
 
 
 def wall_time(planned: Sequence[PlannedCell], jobs: int) -> float:
-    """The suite's estimated wall time with `jobs` cells at once, longest first (greedy)."""
+    """The suite's estimated wall time with `jobs` cells at once, each started in the suite's
+    order when a job is free (as `run_suite` does)."""
     lanes = [0.0] * max(jobs, 1)
-    for cell in sorted(planned, key=lambda p: -p.seconds):
+    for cell in planned:
         lanes[lanes.index(min(lanes))] += cell.seconds
     return max(lanes, default=0.0)
 
