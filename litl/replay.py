@@ -216,14 +216,15 @@ def _components(robot, algorithm, params, steps) -> dict:
 def _recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
     """The loss the run recorded for the same parameters (None if it recorded none). A seed that
     ended stuck reports its last good loss in final.json (`litl.stuck`); its final parameters'
-    own loss is `final_parameters_loss` there."""
+    own loss is `final_parameters_loss` there (also for a seed whose final parameters failed
+    after a healthy last iteration)."""
     path = run_dir / f"{which}.json"
     if not path.exists():
         return None
     entry = next((r for r in json.loads(path.read_text()) if r["seed"] == seed), None)
     if entry is None:
         return None
-    return entry["final_parameters_loss"] if entry.get("stuck") else entry["task_loss"]
+    return entry["final_parameters_loss"] if "final_parameters_loss" in entry else entry["task_loss"]
 
 
 def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:

@@ -570,14 +570,29 @@ def _save_final_losses(run_dir: pathlib.Path, losses, seeds, records):
     `python -m litl.replay` reproduces it). A seed whose last iterations were skipped is stuck
     (`litl.stuck`): its task_loss is its last good one, with ``"stuck": true``,
     skipped_at_end, last_good_step and final_parameters_loss (what the forward simulation of
-    its final parameters gave; null: not finite). The other seeds' entries are as they were."""
+    its final parameters gave; null: not finite). A seed whose last iteration was healthy but
+    whose final parameters (after that iteration's update) fail in this forward simulation keeps
+    that iteration's loss too, with ``"final_parameters_failed": true``, last_good_step and
+    ``final_parameters_loss: null``. The other seeds' entries are as they were."""
     losses = np.asarray(losses)
     ends = seed_ends(records)
     summary = []
     for s, seed in enumerate(seeds):
         end = ends.get(seed)
+        final_loss = _json_value(losses[s])
+        if end is not None and not end.stuck and final_loss is None and end.task_loss is not None:
+            summary.append(
+                {
+                    "seed": seed,
+                    "task_loss": end.task_loss,
+                    "final_parameters_failed": True,
+                    "last_good_step": end.last_good_step,
+                    "final_parameters_loss": None,
+                }
+            )
+            continue
         if end is None or not end.stuck:
-            summary.append({"seed": seed, "task_loss": _json_value(losses[s])})
+            summary.append({"seed": seed, "task_loss": final_loss})
             continue
         summary.append(
             {

@@ -134,3 +134,27 @@ def test_the_replay_compares_a_stuck_seed_with_its_final_parameters_own_loss(stu
     final = json.loads((run_dir / "final.json").read_text())
     assert _recorded_loss(run_dir, "final", 0) is None  # its final parameters' loss: not finite
     assert _recorded_loss(run_dir, "final", 1) == final[1]["task_loss"]
+
+
+def test_final_parameters_that_fail_after_a_healthy_last_iteration_keep_that_iterations_loss(tmp_path):
+    # Seed 0's last iteration was healthy, but the update it made gives parameters whose forward
+    # simulation fails (NaN); seed 1's final parameters are fine.
+    records = [
+        {"seed": seed, "step": step, "task_loss": -0.1 * (step + 1) - seed, "skipped": None}
+        for seed in (0, 1)
+        for step in range(3)
+    ]
+    RUN_MODULE._save_final_losses(tmp_path, np.array([np.nan, -1.5]), [0, 1], records)
+    failed, other = json.loads((tmp_path / "final.json").read_text())
+    assert failed == {
+        "seed": 0,
+        "task_loss": pytest.approx(-0.3),
+        "final_parameters_failed": True,
+        "last_good_step": 2,
+        "final_parameters_loss": None,
+    }
+    assert other == {"seed": 1, "task_loss": -1.5}
+    from litl.replay import _recorded_loss
+
+    assert _recorded_loss(tmp_path, "final", 0) is None
+    assert _recorded_loss(tmp_path, "final", 1) == -1.5
