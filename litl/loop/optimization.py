@@ -4,8 +4,9 @@ A rollout with the fixed observer Θ, the task loss, its gradients with respect 
 and the design φ through the whole simulation, Adam (its step size on a cosine schedule), the
 projection of φ into its bounds, and the rollout's snapshots into the replay buffer (or replacing
 it without replay; or one observer step on them in the simultaneous ablation). An iteration whose
-rollout or gradient failed changes nothing but the counters (`skip_reason`); one that is much
-worse than the last accepted iterate steps back to it at half the step (`Anchor`).
+rollout or gradient failed keeps nothing of its own (`skip_reason`); one that is much worse than
+the last accepted iterate, or that failed, steps back to that iterate at half the step (`Anchor`),
+so that a step too long for the simulation is retried shorter instead of failing again.
 """
 
 from __future__ import annotations
@@ -75,7 +76,11 @@ class Optimization:
             state.best,
         )
         step_back = healthy & self.falls_back(state.anchor, total)
-        state = self.take_step(state, total, controller_grad, design_grad, step_back)
+        # A failed rollout or gradient comes from the last step's parameters: retake that step
+        # at half its size (with the step backs on, and while it may still be halved).
+        retry = ~healthy & self.may_step_back(state.anchor)
+        state = self.take_step(state, total, controller_grad, design_grad, step_back | retry)
+        moved = state
         snapshots = trajectory.snapshots
         keep = add if self.config.loop.replay_buffer else replace_with
         state = state.replace(
@@ -92,8 +97,16 @@ class Optimization:
             )
             state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
             recon = losses["recon"]
-        # A failed iteration changes nothing but the key and the counters (and says why).
-        state = keep_if(healthy, state, before).replace(
+        # A failed iteration keeps nothing of its own (no snapshots, no observer step), only the
+        # retaken step if there is one, the key and the counters (and says why).
+        retried = before.replace(
+            controller=moved.controller,
+            design=moved.design,
+            controller_optimizer=moved.controller_optimizer,
+            design_optimizer=moved.design_optimizer,
+            anchor=moved.anchor,
+        )
+        state = keep_if(healthy, state, keep_if(retry, retried, before)).replace(
             key=state.key,
             best=best,
             iteration=state.iteration + 1,
@@ -109,13 +122,20 @@ class Optimization:
             "design_grad_norm": design_grad_norm,
             "skipped": reason,
             "consecutive_skips": state.consecutive_skips,
-            "stepped_back": step_back,
+            "stepped_back": step_back | retry,
             "step_scale": state.anchor.step_scale,
             "simultaneous_recon_loss": recon,
             "first_nonfinite_step": trajectory.health.first_nonfinite_step,
             "first_escape_step": trajectory.health.first_escape_step,
         }
         return state, metrics
+
+    def may_step_back(self, anchor: Anchor) -> jnp.ndarray:
+        """() bool: step backs are on (`loop.safeguards.step_back_tolerance` not None), there is
+        an accepted iterate to return to, and its step may still be halved."""
+        if self.config.loop.safeguards.step_back_tolerance is None:
+            return jnp.zeros((), bool)
+        return jnp.isfinite(anchor.task_loss) & (anchor.step_scale > 0.5**MAX_STEP_BACKS)
 
     def falls_back(self, anchor: Anchor, total) -> jnp.ndarray:
         """() bool: the rollout's task loss is worse than the anchor's by more than
@@ -124,7 +144,7 @@ class Optimization:
         if tolerance is None:
             return jnp.zeros((), bool)
         limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
-        return jnp.isfinite(anchor.task_loss) & (total > limit) & (anchor.step_scale > 0.5**MAX_STEP_BACKS)
+        return self.may_step_back(anchor) & (total > limit)
 
     def take_step(self, state: LoopState, total, controller_grad, design_grad, step_back) -> LoopState:
         """The iteration's parameter update. Normally a full Adam step from the current θ, φ,

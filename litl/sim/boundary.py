@@ -16,7 +16,7 @@ def _face_masks(config: SimConfig):
     for axis, n in enumerate(config.grid_shape):
         index = np.arange(n).reshape([-1 if a == axis else 1 for a in range(config.dim)])
         masks.append(np.broadcast_to(index < t, config.grid_shape))
-        masks.append(np.broadcast_to(index > n - t, config.grid_shape))
+        masks.append(np.broadcast_to(index >= n - t, config.grid_shape))
     return masks
 
 

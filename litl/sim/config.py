@@ -8,8 +8,11 @@ Conventions:
   * The domain is the box [0, grid_shape[a] * dx] along each axis a; grid node i of axis a sits at
     i * dx.
   * Axis 1 is "up": the face at the low end of axis 1 is the floor. Gravity is any vector.
-  * A wall of thickness t acts on the nodes with index i < t at the low end of an axis and
-    i > n - t at the high end (the convention of ChainQueen / DiffTaichi's `diffmpm`).
+  * A wall of thickness t acts on the t outermost nodes at each end of an axis: index i < t at
+    the low end, i >= n - t at the high end. (ChainQueen / DiffTaichi's `diffmpm` use i > n - t
+    at the high end, one node fewer: a body pressed against a high wall then comes within
+    half a cell of leaving the grid, measured in docs/results/2026-11-26-paper-scale-stability.md.
+    The published walker never reaches its high walls, so its numbers do not depend on this.)
 """
 
 from __future__ import annotations

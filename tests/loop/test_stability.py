@@ -1,4 +1,5 @@
-"""A loop that never poisons itself: failed iterations change nothing and are recorded."""
+"""A loop that never poisons itself: failed iterations keep nothing of their own (with step backs on,
+they retake the last step shorter) and are recorded."""
 
 import json
 
@@ -183,6 +184,45 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
         plain.init(0).replace(anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
     )
     assert not bool(metrics["stepped_back"])
+
+
+def test_a_failed_iteration_retakes_the_last_step_at_half_its_size():
+    """With step backs on, a rollout that fails after an accepted step retakes that step at half
+    its size (the failure came from the step's parameters) and keeps nothing else of its own; off
+    (the paper's loop) it changes nothing, as before."""
+    settings = {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}
+    algorithm = make_algorithm(
+        tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": settings})
+    )
+    optimize = jax.jit(algorithm.optimize)
+    start = algorithm.init(0)
+    first, _ = optimize(start)
+    full_step = jax.tree.map(lambda a, b: a - b, first.controller, start.controller)
+    # The parameters the step reached blow the rollout up.
+    blown = first.replace(design=jnp.full_like(first.design, 1e7))
+    after, metrics = optimize(blown)
+    assert SKIP_REASONS[int(metrics["skipped"])] in ("particles_escaped", "simulation_nonfinite")
+    assert bool(metrics["stepped_back"]) and float(after.anchor.step_scale) == 0.5
+    half = jax.tree.map(lambda a, u: a + u / 2, start.controller, full_step)
+    for got, want in zip(jax.tree.leaves(after.controller), jax.tree.leaves(half), strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7)
+    assert np.all(np.asarray(after.design) < 1e3)  # back near the anchor's design, in its bounds
+    assert int(after.consecutive_skips) == 1
+    for field in ("buffer", "observer", "best"):
+        assert _same(getattr(after, field), getattr(blown, field)), field
+    # The retaken step is healthy again.
+    _, metrics = optimize(after)
+    assert int(metrics["skipped"]) == 0
+    # Off: nothing changes.
+    plain = make_algorithm(
+        tiny_robot(),
+        tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}),
+    )
+    first = jax.jit(plain.optimize)(plain.init(0))[0]
+    blown = first.replace(design=jnp.full_like(first.design, 1e7))
+    after, metrics = jax.jit(plain.optimize)(blown)
+    assert int(metrics["skipped"]) != 0 and not bool(metrics["stepped_back"])
+    assert _same(after.controller, blown.controller) and _same(after.design, blown.design)
 
 
 def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():

@@ -91,8 +91,9 @@ def test_final_json_marks_the_stuck_seed_and_leaves_the_other_as_it_was(stuck_ru
     assert stuck["seed"] == 0 and stuck["stuck"] is True
     assert stuck["task_loss"] == _losses(result, 0)[STUCK_FROM - 1]
     assert stuck["skipped_at_end"] == 2 and stuck["last_good_step"] == STUCK_FROM - 1
-    # Its final parameters (the blown-up design) have no finite loss of their own.
-    assert stuck["final_parameters_loss"] is None
+    # Its final parameters are its last good step retaken shorter after each failure (the
+    # poison is in the iteration, not in them): their own forward simulation is finite.
+    assert np.isfinite(stuck["final_parameters_loss"])
     assert set(other) == {"seed", "task_loss"} and other["seed"] == 1
     assert np.isfinite(other["task_loss"])
 
@@ -132,7 +133,8 @@ def test_the_replay_compares_a_stuck_seed_with_its_final_parameters_own_loss(stu
 
     run_dir, _, _ = stuck_run
     final = json.loads((run_dir / "final.json").read_text())
-    assert _recorded_loss(run_dir, "final", 0) is None  # its final parameters' loss: not finite
+    assert _recorded_loss(run_dir, "final", 0) == final[0]["final_parameters_loss"]
+    assert _recorded_loss(run_dir, "final", 0) != final[0]["task_loss"]
     assert _recorded_loss(run_dir, "final", 1) == final[1]["task_loss"]
 
 
