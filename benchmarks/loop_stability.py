@@ -12,7 +12,9 @@ Each observer runs `python -m litl`'s own settings (the demo's defaults, plus `-
 
   skipped        iterations that changed nothing, by reason (simulation_nonfinite,
                  particles_escaped, loss_nonfinite, gradient_nonfinite)
-  best           largest distance travelled in any healthy iteration
+  stepped_back   iterations that went back to the last accepted iterate at half the step
+  best           largest distance travelled in any healthy iteration (tasks without a distance,
+                 the arm's: largest minus task loss; the same for final and worse>0.01)
   final          mean distance of the last 10 iterations (healthy ones)
   worse>0.01     fraction of iterations whose distance fell more than 0.01 below the previous one
   grad_median    median controller gradient norm (before clipping)
@@ -63,7 +65,8 @@ def summarize(run_dir: pathlib.Path) -> list[dict]:
         seed_records.sort(key=lambda r: r["step"])
         skipped = collections.Counter(r["skipped"] for r in seed_records if r.get("skipped"))
         healthy = [r for r in seed_records if not r.get("skipped")]
-        distance = [r["task/distance"] for r in healthy]
+        # Tasks without a distance term (the arm's reach): minus the task loss, so more is better.
+        distance = [r["task/distance"] if "task/distance" in r else -r["task_loss"] for r in healthy]
         drops = sum(b < a - 0.01 for a, b in itertools.pairwise(distance))
         grads = [r["controller_grad_norm"] for r in healthy if r["controller_grad_norm"] is not None]
         rows.append(
@@ -71,6 +74,7 @@ def summarize(run_dir: pathlib.Path) -> list[dict]:
                 "seed": seed,
                 "iterations": len(seed_records),
                 "skipped": dict(skipped),
+                "stepped_back": sum(bool(r.get("stepped_back")) for r in seed_records),
                 "best": max(distance) if distance else None,
                 "final": statistics.fmean(distance[-10:]) if distance else None,
                 "worse_fraction": drops / max(len(distance) - 1, 1),
@@ -108,7 +112,7 @@ def main():
         print(json.dumps(results, indent=1))
         return
     print(
-        f"{'observer':8s} {'seed':>4s} {'its':>4s} {'skipped':>20s} {'best':>7s} {'final':>7s} "
+        f"{'observer':8s} {'seed':>4s} {'its':>4s} {'skipped':>20s} {'back':>4s} {'best':>7s} {'final':>7s} "
         f"{'worse>0.01':>10s} {'grad_med':>9s} {'wall_s':>7s}"
     )
     for observer, rows in results.items():
@@ -117,7 +121,7 @@ def main():
             fmt = lambda v: f"{v:7.3f}" if v is not None else "    n/a"
             grad = f"{r['grad_median']:9.3g}" if r["grad_median"] is not None else "      n/a"
             print(
-                f"{observer:8s} {r['seed']:4d} {r['iterations']:4d} {skipped:>20s} "
+                f"{observer:8s} {r['seed']:4d} {r['iterations']:4d} {skipped:>20s} {r['stepped_back']:4d} "
                 f"{fmt(r['best'])} {fmt(r['final'])} {r['worse_fraction']:10.2f} {grad} "
                 f"{r['wall_s']:7.0f}"
             )
