@@ -21,6 +21,10 @@ def test_the_paper_scale_runs_the_presets_as_they_are(tmp_path):
     assert (config.seeds, config.loop.episodes, config.loop.iterations) == (10, 20, 10)
     demo = compose(cell.overrides(SCALES["demo"], 10))
     assert (demo.loop.episodes, demo.loop.iterations) == (6, 10)
+    # --episodes: a longer run at the same scale, every other setting the scale's.
+    longer = compose(cell.overrides(SCALES["demo"].with_episodes(10), 10))
+    assert (longer.loop.episodes, longer.loop.iterations, longer.robot.dx) == (10, 10, demo.robot.dx)
+    assert compose(cell.overrides(SCALES["paper"].with_episodes(3), 10)).loop.episodes == 3
 
 
 def test_the_plan_estimates_each_unfinished_cell_and_the_total(tmp_path):
@@ -60,7 +64,11 @@ def test_jobs_are_refused_below_one_or_beyond_the_devices_memory():
 
 @pytest.mark.parametrize(
     "argv, message",
-    [(["--jobs", "0"], "--jobs must be at least 1"), (["--scale", "huge"], "invalid choice: 'huge'")],
+    [
+        (["--jobs", "0"], "--jobs must be at least 1"),
+        (["--scale", "huge"], "invalid choice: 'huge'"),
+        (["--episodes", "0"], "--episodes must be at least 1"),
+    ],
 )
 def test_bad_scale_or_jobs_stop_before_anything_runs(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) as exit_info:
@@ -102,3 +110,17 @@ def test_a_suite_runs_two_cells_at_once_and_resumes_what_was_stopped(tmp_path, c
     # Everything finished: a second call plans nothing and runs nothing.
     assert main(argv) == 0
     assert "the plan" not in capsys.readouterr().out
+
+
+def test_a_suite_of_another_episode_count_is_refused_where_runs_of_the_first_lie(tmp_path, capsys):
+    import json
+
+    run_dir = tmp_path / "runs" / "litl" / "fig4b" / "vae"
+    run_dir.mkdir(parents=True)
+    size = {"seeds": 10, "loop": {"episodes": 6, "iterations": 10}}
+    (run_dir / "run.json").write_text(json.dumps({"config": size}))
+    argv = ["--out", str(tmp_path), "--panels", "fig4b", "--methods", "litl", "--report-only"]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--episodes", "10"])
+    assert exit_info.value.code == 2
+    assert "loop.episodes=6" in capsys.readouterr().err

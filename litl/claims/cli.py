@@ -68,6 +68,14 @@ def _parser() -> argparse.ArgumentParser:
         "--seeds", type=int, default=None, help="seeds per run (default: the scale's, 10 at demo and paper)"
     )
     parser.add_argument(
+        "--episodes",
+        type=int,
+        default=None,
+        help="episodes per run instead of the scale's (6 at demo, the presets' 20 at paper), e.g. "
+        "10 to see whether a verdict still moves after 60 iterations; runs of another size need "
+        "another --out",
+    )
+    parser.add_argument(
         "--jobs",
         type=int,
         default=1,
@@ -99,6 +107,10 @@ def _main(args: argparse.Namespace, command: str) -> int:
     from litl.claims.suite import ClaimsError, check_sizes, finished_records
 
     scale = SCALES[args.scale]
+    if args.episodes is not None:
+        if args.episodes < 1:
+            raise ClaimsError(f"--episodes must be at least 1, e.g. --episodes 10; got {args.episodes}")
+        scale = scale.with_episodes(args.episodes)
     seeds = scale.seeds if args.seeds is None else args.seeds
     if seeds < 2:
         raise ClaimsError(f"--seeds must be at least 2 (a claim needs an interval); got {seeds}")

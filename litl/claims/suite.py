@@ -107,6 +107,14 @@ class Scale:
     seeds: int
     overrides: tuple[str, ...]
 
+    def with_episodes(self, episodes: int) -> Scale:
+        """This scale with `episodes` episodes per run instead of its own (a longer run, to see
+        whether a verdict still moves; the cut check then judges it at 60% of them too)."""
+        kept = tuple(o for o in self.overrides if not o.startswith("loop.episodes="))
+        return dataclasses.replace(
+            self, name=f"{self.name}, {episodes} episodes", overrides=(*kept, f"loop.episodes={episodes}")
+        )
+
 
 SCALES = {
     # dx 1/64, 1 s rollouts, 6 episodes x 10 iterations. 10 x 10 (the biped comparison's size)
@@ -218,7 +226,7 @@ def check_sizes(out: str | os.PathLike[str], suite: list[Cell], config_of: Calla
             raise ClaimsError(
                 f"{path.parent} was run with {_settings(found)}, but this suite runs "
                 f"{_settings(wanted)}: give another --out (or move that run away) to start "
-                f"afresh, or the --seeds it was run with"
+                f"afresh, or the --seeds and --episodes it was run with"
             )
 
 
