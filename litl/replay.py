@@ -11,9 +11,10 @@ them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
 * the animation (.gif, or .mp4 with ffmpeg): particles coloured by actuation, or by the learned
   Young's modulus per region (`--color stiffness`); 3D robots in perspective;
 * `<name>_design.png`: the robot at rest coloured by its learned stiffness, with the bounds;
-* `<name>.json`: seed, steps, the task loss and its components, and the loss the run recorded for
+* `<name>.json`: seed, steps, the task loss and its components, the loss the run recorded for
   the same parameters (`final.json` or `best.json`), which the replay reproduces at the run's
-  own step count.
+  own step count, and how close the robot came to leaving the grid at each face
+  (`escape_margin_cells`, `litl.sim.safety.escape_margins`).
 """
 
 from __future__ import annotations
@@ -110,6 +111,7 @@ def replay(
     import numpy as np
 
     from litl.loop import load_final, make_algorithm, stack_seeds
+    from litl.sim.safety import escape_margins
     from litl.viz import animate_rollout, draw, draw_gait, record_rollout
 
     run_dir = pathlib.Path(run_dir)
@@ -187,6 +189,8 @@ def replay(
         "recorded_loss": recorded,
         "design": design.tolist(),
         "design_bounds": list(space.bounds),
+        # How close the robot came to leaving the grid, per face (recorded frames only).
+        "escape_margin_cells": escape_margins(robot.config, positions),
         "files": files,
     }
     if gait_numbers is not None:

@@ -29,6 +29,11 @@ def test_replay_reproduces_the_recorded_final_and_best_losses(finished_run, tmp_
         assert summary["task_loss"] == pytest.approx(summary["recorded_loss"], rel=1e-5, abs=1e-8)
         assert summary["steps"] == summary["run_steps"] == 40
         assert summary["components"]["distance"] == pytest.approx(-summary["task_loss"], abs=1e-6)
+        # The walker stands on the floor (its feet a cell or so above the escape line) and is
+        # far from the other walls.
+        margins = summary["escape_margin_cells"]
+        assert set(margins) == {"x_low", "x_high", "y_low", "y_high"}
+        assert 1.0 < margins["y_low"] < 3.0 and min(margins.values()) == margins["y_low"]
     best = replay(finished_run, seed=1, which="best", out=tmp_path / "best.gif")
     assert best["task_loss"] == pytest.approx(best["recorded_loss"], abs=1e-6)
 

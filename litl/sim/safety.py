@@ -162,6 +162,29 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
         )
 
 
+def escape_margins(config: SimConfig, positions) -> dict[str, float]:
+    """How close particles came to leaving the grid: for each face of the domain, the smallest
+    distance, in cells, between any particle of `positions` and the line beyond which its stencil
+    would leave the grid (where a rollout's `first_escape_step` fires). A body resting against a
+    wall keeps about 1.46 cells; less means it pressed into the wall's layer.
+
+    Args:
+      config: the simulation's grid.
+      positions: (..., n, d) particle positions, e.g. a recorded rollout's frames.
+
+    Returns:
+      {"x_low": ..., "x_high": ..., "y_low" (the floor), "y_high", and "z_low", "z_high" in 3D}.
+    """
+    cells = np.asarray(positions, np.float64) / config.dx
+    cells = cells.reshape(-1, config.dim)
+    margins = {}
+    for axis, (name, n) in enumerate(zip("xyz", config.grid_shape, strict=False)):
+        # A particle's stencil starts at floor(x - 0.5) and must lie in [0, n - 3]: x in [0.5, n - 1.5).
+        margins[f"{name}_low"] = float(cells[:, axis].min() - 0.5)
+        margins[f"{name}_high"] = float(n - 1.5 - cells[:, axis].max())
+    return margins
+
+
 def raise_if_unhealthy(health, steps: int | None = None) -> None:
     """Raise `SimulationError` if a rollout's `Health` (possibly batched) reports a failure."""
     nonfinite = np.atleast_1d(np.asarray(health.first_nonfinite_step))

@@ -10,6 +10,7 @@ import pytest
 
 from litl.sim import Boundary, SimConfig, Wall, linalg, make_rollout, make_step, raise_if_unhealthy, transfer
 from litl.sim.boundary import apply_boundary
+from litl.sim.safety import escape_margins
 from tests.sim.scenes import block
 
 # Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
@@ -160,6 +161,13 @@ def test_every_wall_holds_a_body_pressed_into_it_with_the_same_margin():
     margins = [_deepest_in_wall(axis, sign) for axis in (0, 1) for sign in (-1, 1)]
     assert min(margins) > 1.0, margins
     np.testing.assert_allclose(margins, margins[0], atol=0.05)
+
+
+def test_escape_margins_measure_each_face_in_cells():
+    config = SimConfig(grid_shape=(32, 16), dx=1 / 32, dt=1e-3, gravity=(0.0, 0.0))
+    cells = np.array([[[2.0, 1.5], [30.0, 13.0]], [[10.0, 7.0], [29.5, 14.25]]])
+    margins = escape_margins(config, cells / 32)
+    assert margins == pytest.approx({"x_low": 1.5, "x_high": 0.5, "y_low": 1.0, "y_high": 0.25})
 
 
 def test_friction_wall_is_coulomb_in_3d():
