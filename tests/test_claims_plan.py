@@ -25,6 +25,9 @@ def test_the_paper_scale_runs_the_presets_as_they_are(tmp_path):
     longer = compose(cell.overrides(SCALES["demo"].with_episodes(10), 10))
     assert (longer.loop.episodes, longer.loop.iterations, longer.robot.dx) == (10, 10, demo.robot.dx)
     assert compose(cell.overrides(SCALES["paper"].with_episodes(3), 10)).loop.episodes == 3
+    assert SCALES["demo"].label == "demo scale"
+    assert SCALES["demo"].with_episodes(10).label == "demo scale, 10 episodes"
+    assert SCALES["paper"].with_episodes(3).label == "paper scale, 3 episodes"
 
 
 def test_the_plan_estimates_each_unfinished_cell_and_the_total(tmp_path):

@@ -176,7 +176,7 @@ def _plan_and_run(
     planned = plan.plan(out, suite, config_of)
     if not planned:
         return
-    print(f"litl.claims: the plan ({scale.name} scale, {seeds} seeds):")
+    print(f"litl.claims: the plan ({scale.label}, {seeds} seeds):")
     for line in plan.describe(planned, jobs):
         print(line)
     plan.check_jobs(planned, jobs, device_memory_bytes())
