@@ -146,7 +146,7 @@ def run(
       retraining minus right after it, before any step: what retraining alone cost, negative
       meaning lost progress; on iteration 0 of episodes after a learning phase, else null),
       retrain_change (Table 1: the same after retraining plus one optimization step; on
-      iteration 1), health steps, skipped (null, or why the iteration changed nothing: one of
+      iteration 1), health steps, skipped (null, or why the iteration kept nothing of its own: one of
       `SKIP_REASONS`' values), consecutive_skips, stepped_back and step_scale (see
       `litl.loop.algorithm`: whether the iteration went back to the last accepted iterate, and
       the fraction of a full step taken), and wall_s.

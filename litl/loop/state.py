@@ -14,7 +14,7 @@ from flax import struct
 
 from litl.loop.replay_buffer import ReplayBuffer
 
-# Codes of the `skipped` metric: why an iteration changed nothing (0: it did not skip).
+# Codes of the `skipped` metric: why an iteration kept nothing of its own (0: it did not skip).
 SKIP_REASONS = {
     1: "particles_escaped",
     2: "simulation_nonfinite",
