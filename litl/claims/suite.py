@@ -101,26 +101,24 @@ class Scale:
       name: ``"demo"`` (the suite of record) or ``"smoke"`` (seconds per run, for tests).
       seeds: seeds per cell (the paper: 10).
       overrides: what shrinks a paper preset to this scale.
+      episodes: the episode count `with_episodes` set instead of the scale's own (None: its own).
     """
 
     name: str
     seeds: int
     overrides: tuple[str, ...]
+    episodes: int | None = None
 
     def with_episodes(self, episodes: int) -> Scale:
         """This scale with `episodes` episodes per run instead of its own (a longer run, to see
         whether a verdict still moves; the cut check then judges it at 60% of them too)."""
         kept = tuple(o for o in self.overrides if not o.startswith("loop.episodes="))
-        return dataclasses.replace(self, overrides=(*kept, f"loop.episodes={episodes}"))
+        return dataclasses.replace(self, episodes=episodes, overrides=(*kept, f"loop.episodes={episodes}"))
 
     @property
     def label(self) -> str:
         """For people: ``demo scale``, or ``demo scale, 10 episodes`` with another count."""
-        episodes = [o.split("=", 1)[1] for o in self.overrides if o.startswith("loop.episodes=")]
-        default = SCALES.get(self.name)
-        if episodes and (default is None or default.overrides != self.overrides):
-            return f"{self.name} scale, {episodes[-1]} episodes"
-        return f"{self.name} scale"
+        return f"{self.name} scale" + ("" if self.episodes is None else f", {self.episodes} episodes")
 
 
 SCALES = {

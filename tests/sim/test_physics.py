@@ -144,14 +144,11 @@ def _deepest_in_wall(axis, sign, n_grid=32):
     velocity = np.zeros(state.x.shape, np.float32)
     velocity[:, axis] = 4.0 * sign
     state = state.replace(v=jnp.asarray(velocity))
-    extreme = jnp.min if sign < 0 else jnp.max
-    observe = lambda s: extreme(s.x[:, axis]) / config.dx
     steps = int(0.5 / config.dt)
     still = lambda params, state, grid_velocity: jnp.zeros(0, state.x.dtype)
-    _, trajectory = jax.jit(make_rollout(config, body, still, steps, observe=observe))(None, design, state)
-    cells = np.asarray(trajectory.observations)
-    # The stencil of a particle at x (in cells) starts at floor(x - 0.5), in [0, n - 3]: x in [0.5, n - 1.5).
-    return float(cells.min() - 0.5) if sign < 0 else float(n_grid - 1.5 - cells.max())
+    rollout = make_rollout(config, body, still, steps, observe=lambda s: s.x)
+    _, trajectory = jax.jit(rollout)(None, design, state)
+    return escape_margins(config, trajectory.observations)[f"{'xy'[axis]}_{'low' if sign < 0 else 'high'}"]
 
 
 def test_every_wall_holds_a_body_pressed_into_it_with_the_same_margin():
