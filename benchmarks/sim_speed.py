@@ -4,6 +4,7 @@
     python benchmarks/sim_speed.py --json     # one JSON object (see below)
     python benchmarks/sim_speed.py --scenes walker2d --repeats 3
     python benchmarks/sim_speed.py --scenes block3d_1m --steps 2 --particles 4000   # smoke
+    python benchmarks/sim_speed.py --scenes walker2d quadruped3d --max-stretch 3  # strain limit's cost
 
 Scenes:
   walker2d          the reference walker (tests/sim/data/walker2d.md), float32, 1023 steps
@@ -20,7 +21,9 @@ For each scene: `compile_s` (lowering + XLA compilation of forward+backward), `f
 per second (`forward_particle_steps_per_s`, `forward_backward_particle_steps_per_s`: particles x
 steps x batch / time), `peak_rss_mb` (peak resident memory of a fresh process that ran only that
 scene; on a GPU, `peak_device_mb` from the device's allocator where it reports one) and `device`
-(platform and kind of `jax.devices()[0]`). Each scene runs in its own process, so that the
+(platform and kind of `jax.devices()[0]`). `--max-stretch S` runs the scenes with the strain limit
+`SimConfig.max_stretch` = S (the catalog robots' is 3; the scenes' own have none), to measure its
+cost. Each scene runs in its own process, so that the
 parent never starts the accelerator (JAX would reserve most of a GPU's memory for it).
 """
 
@@ -46,7 +49,9 @@ CPU_SCENES = ("walker2d", "quadruped3d", "walker2d_vmap10")
 BLOCK_PARTICLES = 1_048_576
 
 
-def _walker(n_policies: int | None, steps: int):
+def _walker(n_policies: int | None, steps: int, max_stretch: float | None = None):
+    import dataclasses
+
     import jax
     import jax.numpy as jnp
 
@@ -54,6 +59,7 @@ def _walker(n_policies: int | None, steps: int):
     from litl.sim import make_rollout
 
     scene = walker2d.build(jnp.float32)
+    scene = dataclasses.replace(scene, config=dataclasses.replace(scene.config, max_stretch=max_stretch))
     rng = np.random.default_rng(0)
     weights = rng.normal(0, 0.3, (walker2d.N_ACTUATORS, 4))
     bias = rng.normal(0, 0.05, walker2d.N_ACTUATORS)
@@ -120,13 +126,16 @@ def quadruped_scene(dtype=None):
     return config, body, design, SimState.at_rest(jnp.asarray(x, dtype))
 
 
-def _quadruped(steps: int):
+def _quadruped(steps: int, max_stretch: float | None = None):
+    import dataclasses
+
     import jax
     import jax.numpy as jnp
 
     from litl.sim import make_rollout
 
     config, body, design, state = quadruped_scene()
+    config = dataclasses.replace(config, max_stretch=max_stretch)
 
     def policy(params, state, grid_velocity):
         t = state.step.astype(jnp.float32) * config.dt
@@ -233,7 +242,13 @@ def _peak_device_mb():
     return None if peak is None else round(peak / 2**20, 1)
 
 
-def run_scene(name: str, repeats: int, steps: int | None, particles: int = BLOCK_PARTICLES) -> dict:
+def run_scene(
+    name: str,
+    repeats: int,
+    steps: int | None,
+    particles: int = BLOCK_PARTICLES,
+    max_stretch: float | None = None,
+) -> dict:
     import jax
 
     from litl.sim import raise_if_unhealthy
@@ -241,14 +256,16 @@ def run_scene(name: str, repeats: int, steps: int | None, particles: int = BLOCK
     # batch_particles: particles simulated per step, over all vmapped rollouts.
     if name == "walker2d":
         steps = steps or 1023
-        forward, gradient, params, batch_particles = _walker(None, steps)
+        forward, gradient, params, batch_particles = _walker(None, steps, max_stretch)
     elif name == "walker2d_vmap10":
         steps = steps or 1023
-        forward, gradient, params, batch_particles = _walker(10, steps)
+        forward, gradient, params, batch_particles = _walker(10, steps, max_stretch)
     elif name == "quadruped3d":
         steps = steps or 511
-        forward, gradient, params, batch_particles = _quadruped(steps)
+        forward, gradient, params, batch_particles = _quadruped(steps, max_stretch)
     elif name == "block3d_1m":
+        if max_stretch is not None:
+            raise SystemExit("--max-stretch applies to the walker and quadruped scenes")
         steps = steps or 128
         forward, gradient, params, batch_particles = block_problem(steps, particles)
     else:
@@ -315,6 +332,12 @@ def main(argv=None):
         default=BLOCK_PARTICLES,
         help="at least this many particles in block3d_1m (smoke runs: e.g. 4000)",
     )
+    parser.add_argument(
+        "--max-stretch",
+        type=float,
+        default=None,
+        help="run the scenes with this strain limit (SimConfig.max_stretch; default: none)",
+    )
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one scene in-process
     parser.add_argument("--device-info", action="store_true", help=argparse.SUPPRESS)  # internal
     args = parser.parse_args(argv)
@@ -324,7 +347,7 @@ def main(argv=None):
         print(json.dumps(device_info()))
         return
     if args.one:
-        print(json.dumps(run_scene(args.one, args.repeats, args.steps, args.particles)))
+        print(json.dumps(run_scene(args.one, args.repeats, args.steps, args.particles, args.max_stretch)))
         return
     device = _child(["--device-info"])
     scenes = args.scenes or (CPU_SCENES if device["platform"] == "cpu" else SCENES)
@@ -333,6 +356,8 @@ def main(argv=None):
         command = ["--one", name, "--repeats", str(args.repeats), "--particles", str(args.particles)]
         if args.steps:
             command += ["--steps", str(args.steps)]
+        if args.max_stretch is not None:
+            command += ["--max-stretch", str(args.max_stretch)]
         results[name] = _child(command)
     if args.json:
         print(json.dumps(results))

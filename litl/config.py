@@ -232,12 +232,15 @@ def _enum_of(annotation: object) -> type[enum.Enum] | None:
 class MaterialConfig(_Checked):
     """The robot's material from the command line; each null keeps the robot's own value
     (`litl.robots.Material`; the catalog's robots: E = 20 in [15, 30], ν = 0.25, density 1,
-    actuator strength 3). The time step follows the stiffest allowed design.
+    actuator strength 3, yield past a stretch of 3). The time step follows the stiffest allowed
+    design.
 
     Attributes:
       youngs_modulus: initial Young's modulus E of every design region.
       bounds: [E_min, E_max], the range co-design keeps each region's E in.
       poisson_ratio, density, actuator_strength: fixed material parameters.
+      max_stretch: the principal stretch past which the material yields (the strain limit,
+        `litl.sim.SimConfig.max_stretch`); inf: purely elastic, as ChainQueen.
     """
 
     KEY = "robot.material"
@@ -246,6 +249,7 @@ class MaterialConfig(_Checked):
     poisson_ratio: float | None = None
     density: float | None = None
     actuator_strength: float | None = None
+    max_stretch: float | None = None
 
     def check(self) -> None:
         self._positive_numbers("youngs_modulus", "density", optional=("youngs_modulus", "density"))
@@ -259,6 +263,12 @@ class MaterialConfig(_Checked):
             self._invalid("poisson_ratio", "must lie in (-1, 0.5)")
         if self.actuator_strength is not None and not _number(self.actuator_strength):
             self._invalid("actuator_strength", "must be a finite number")
+        if self.max_stretch is not None and not (
+            isinstance(self.max_stretch, (int, float))
+            and not isinstance(self.max_stretch, bool)
+            and self.max_stretch > 1
+        ):
+            self._invalid("max_stretch", "must be a number > 1 (e.g. 3.0), or inf for no limit")
 
     def changes(self) -> dict[str, Any]:
         """The `litl.robots.Material` fields this config sets."""

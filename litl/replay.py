@@ -20,7 +20,9 @@ them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import math
 import pathlib
 import sys
 from typing import Any, cast
@@ -67,6 +69,10 @@ def load_run_config(run_dir: pathlib.Path):
         material = Material(**saved.get("material", {}))
         if material != robot.material:
             robot = robot.with_material(material)
+    # Runs before the strain limit (no max_stretch in their material) were purely elastic.
+    limit = saved.get("material", {}).get("max_stretch", math.inf)
+    if robot.material.max_stretch != limit:
+        robot = robot.with_material(dataclasses.replace(robot.material, max_stretch=limit))
     check_observer(config)
     found = {"robot": robot.name, "particles": robot.layout.n_particles, "dt": robot.config.dt}
     recorded = {key: saved.get(key) for key in found}

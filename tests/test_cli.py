@@ -177,6 +177,7 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("method=papr", "Could not find 'method/papr'"),
         ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
         ("experiment=fig9", "Could not find 'experiment/fig9'"),
+        ("robot.material.max_stretch=1", "robot.material.max_stretch=1.0: must be a number > 1"),
     ],
 )
 def test_bad_settings_fail_early_with_a_clear_message(override, message):
@@ -278,8 +279,19 @@ def test_material_and_design_bounds_from_the_command_line(tmp_path):
     saved = json.loads((tmp_path / "run.json").read_text())
     assert saved["material"]["youngs_modulus_bounds"] == [15.0, 60.0]
     assert saved["dt"] == 0.072 / 32 < 0.1 / 32  # E_max 60 instead of 30
+    assert saved["material"]["max_stretch"] == 3.0  # the catalog's strain limit
     # φ0 = 30 in each region (the metrics hold φ after one Adam step of at most 0.5)
     assert result.metrics[0]["design"] == pytest.approx([30.0] * 4, abs=0.5)
+
+
+@pytest.mark.parametrize("value, limit", [("inf", None), ("2.5", 2.5)])
+def test_the_strain_limit_from_the_command_line(value, limit):
+    from litl.app import build_robot, compose
+
+    assert build_robot(compose([])).config.max_stretch == 3.0
+    robot = build_robot(compose([f"robot.material.max_stretch={value}"]))
+    assert robot.config.max_stretch == limit
+    assert robot.config.dt == build_robot(compose([])).config.dt
 
 
 def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():

@@ -54,7 +54,7 @@ def simulation(
     dim: int, dx: float, duration: float, gravity: float = GRAVITY, material: Material = Material()
 ):
     """(SimConfig, steps) for the standard domain at spacing dx, with the time step of the
-    stiffest design `material` allows (`Material.time_step`)."""
+    stiffest design `material` allows (`Material.time_step`) and its strain limit."""
     extent = (1.0, 1.0) if dim == 2 else (2.0, 1.0, 1.0)
     if isinstance(dx, bool) or not isinstance(dx, (int, float)) or not 0 < dx <= MAX_DX:
         raise SimConfigError(
@@ -76,6 +76,7 @@ def simulation(
         dt=dt,
         gravity=tuple(up),
         boundary=Boundary.box(dim, thickness=3),
+        max_stretch=material.stretch_limit,
     )
     return config, max(int(round(duration / dt)), 1)
 

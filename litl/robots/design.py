@@ -29,6 +29,10 @@ from litl.sim import Design, SimConfigError
 # significant digits, which gives the catalog's robots dt = dx / 10.
 TARGET_CFL = 0.63
 
+# The largest principal stretch the catalog's materials keep before yielding (`SimConfig.max_stretch`,
+# `litl.sim.stretch`). Set from the biped at dx 1/128: see `Material.max_stretch`.
+MAX_STRETCH = 3.0
+
 
 @dataclasses.dataclass(frozen=True)
 class Material:
@@ -40,6 +44,10 @@ class Material:
       poisson_ratio: Poisson ratio nu, in (-1, 0.5).
       density: mass per unit volume.
       actuator_strength: active stress per unit actuation, the same for every actuator.
+      max_stretch: the principal stretch past which the material yields (strain limiting,
+        `SimConfig.max_stretch`); math.inf: never (purely elastic). The default, `MAX_STRETCH`,
+        bounds the stress of particles torn from a leg at dx 1/128, whose stiffening the time
+        step does not cover (docs/results/2026-11-26-paper-scale-stability.md).
     """
 
     youngs_modulus: float = 20.0
@@ -47,6 +55,7 @@ class Material:
     poisson_ratio: float = 0.25
     density: float = 1.0
     actuator_strength: float = 3.0
+    max_stretch: float = MAX_STRETCH
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "youngs_modulus_bounds", tuple(self.youngs_modulus_bounds))
@@ -67,6 +76,18 @@ class Material:
                 f"density must be > 0 and actuator_strength finite, got "
                 f"{self.density}, {self.actuator_strength}"
             )
+        if isinstance(self.max_stretch, bool) or not (
+            isinstance(self.max_stretch, (int, float)) and self.max_stretch > 1
+        ):
+            raise SimConfigError(
+                f"max_stretch must be a number > 1 (the stretch at which the material yields, e.g. "
+                f"{MAX_STRETCH}) or inf (never), got {self.max_stretch!r}"
+            )
+
+    @property
+    def stretch_limit(self) -> float | None:
+        """`max_stretch` as `SimConfig.max_stretch` takes it: None for no limit."""
+        return None if math.isinf(self.max_stretch) else float(self.max_stretch)
 
     def max_wave_speed(self) -> float:
         """The fastest elastic wave at E_max, actuators counted as extra stiffness (as

@@ -111,10 +111,11 @@ class Robot:
 
     def with_material(self, material: Material) -> Robot:
         """This robot with another `Material`; dt follows the stiffest allowed design
-        (`Material.time_step`) and a rollout keeps its duration in seconds."""
+        (`Material.time_step`), the strain limit the material's `max_stretch`, and a rollout
+        keeps its duration in seconds."""
         duration = self.steps * self.config.dt
         dt = material.time_step(self.config.dx)
-        config = dataclasses.replace(self.config, dt=dt)
+        config = dataclasses.replace(self.config, dt=dt, max_stretch=material.stretch_limit)
         return dataclasses.replace(
             self, material=material, config=config, steps=max(int(round(duration / dt)), 1)
         )

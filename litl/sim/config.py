@@ -134,6 +134,13 @@ class SimConfig:
         (`litl.sim.constitutive`).
       mass_epsilon: added to the grid mass before dividing momentum by it, in units of the mean
         particle mass (1e-10 as in DiffTaichi, whose particles have unit mass).
+      max_stretch: strain limit: after each step, every singular value of a particle's deformation
+        gradient above this bound (> 1) is clamped to it, i.e. the material yields plastically
+        instead of stretching further (`litl.sim.stretch`). It bounds the stress of a particle
+        torn from the body, whose stiffening under stretch the time step does not cover (at
+        dx 1/128 such a particle blew rollouts up). Particles that never reach it are untouched,
+        bit for bit. None: purely elastic (ChainQueen / DiffTaichi, the published walker's scene);
+        the catalog's robots use `litl.robots.catalog.MAX_STRETCH`.
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
@@ -152,6 +159,7 @@ class SimConfig:
     boundary: Boundary | None = None
     constitutive_model: ConstitutiveModel = "fixed_corotated"
     mass_epsilon: float = 1e-10
+    max_stretch: float | None = None
     buffering: Buffering = "auto"
 
     def __post_init__(self) -> None:
@@ -178,6 +186,16 @@ class SimConfig:
         if self.constitutive_model not in CONSTITUTIVE_MODELS:
             raise SimConfigError(
                 f"unknown constitutive_model {self.constitutive_model!r}; choose one of {CONSTITUTIVE_MODELS}"
+            )
+        if self.max_stretch is not None and not (
+            isinstance(self.max_stretch, (int, float))
+            and not isinstance(self.max_stretch, bool)
+            and math.isfinite(self.max_stretch)
+            and self.max_stretch > 1
+        ):
+            raise SimConfigError(
+                f"max_stretch must be a finite number > 1 (the largest principal stretch a particle "
+                f"keeps, e.g. 3.0) or None (no limit), got {self.max_stretch!r}"
             )
         if self.buffering not in BUFFERINGS:
             raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")

@@ -223,3 +223,34 @@ def _polar_rotation_3d_jvp(primals, tangents):
     zero = jnp.zeros_like(wx)
     Omega = [[zero, -wz, wy], [wz, zero, -wx], [-wy, wx, zero]]
     return R, matmul(R, Omega)
+
+
+def symmetric_eigenvalues(a: Mat) -> list:
+    """Eigenvalues of a symmetric 2x2 or 3x3 matrix, largest first, in closed form.
+
+    3D uses the trigonometric solution of the characteristic cubic. Values and derivatives stay
+    finite where eigenvalues repeat (a multiple of the identity included): the spread is kept
+    from reaching zero by a term of 1e-12 of the mean eigenvalue's square (which moves an
+    eigenvalue by at most 1e-6 of the mean), and in 3D the cubic's angle is kept off its ends,
+    which splits two exactly repeated eigenvalues by up to ~5e-4 of their value.
+    """
+    d = len(a)
+    mean = trace(a) / d
+    floor = 1e-12 * mean * mean + jnp.finfo(jnp.result_type(mean)).tiny
+    if d == 2:
+        half_gap = 0.5 * (a[0][0] - a[1][1])
+        radius = jnp.sqrt(half_gap * half_gap + a[0][1] * a[1][0] + floor)
+        return [mean + radius, mean - radius]
+    off = a[0][1] * a[1][0] + a[0][2] * a[2][0] + a[1][2] * a[2][1]
+    spread = jnp.sqrt((sum((a[i][i] - mean) ** 2 for i in range(3)) + 2 * off) / 6 + floor)
+    shifted = _add_scaled_identity(a, -mean)
+    half_det = det(scale(shifted, 1.0 / spread)) / 2
+    # |half_det| <= 1 mathematically; at +-1 two eigenvalues repeat and acos' is infinite.
+    angle = jnp.arccos(jnp.clip(half_det, -1 + 1e-6, 1 - 1e-6)) / 3
+    largest = mean + 2 * spread * jnp.cos(angle)
+    smallest = mean + 2 * spread * jnp.cos(angle + 2 * jnp.pi / 3)
+    return [largest, 3 * mean - largest - smallest, smallest]
+
+
+def _add_scaled_identity(a: Mat, value) -> Mat:
+    return [[x + value if i == j else x for j, x in enumerate(row)] for i, row in enumerate(a)]

@@ -13,6 +13,7 @@ from litl.sim.boundary import apply_boundary
 from litl.sim.config import SimConfig
 from litl.sim.constitutive import CONSTITUTIVE_MODELS, actuation_stress
 from litl.sim.state import Body, Design, Grid, SimState
+from litl.sim.stretch import limit_stretch
 
 StepFn = Callable[[SimState, jnp.ndarray, Design], tuple[SimState, Grid]]
 # tau = stress(F, mu, lam): Kirchhoff stress from per-component F (F[i][j] of shape (n,)) and (n,)
@@ -135,6 +136,11 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         mass = design.density * body.volume
         mu, lam = design.lame()
         F = linalg.matmul(linalg.add(linalg.identity(dim, mass), linalg.scale(state.C, dt)), state.F)
+        if config.max_stretch is not None:
+            F = limit_stretch(F, config.max_stretch)
+            if field_token is not None:
+                # Read by every stress component: clamped once, not once per reader (XLA:CPU).
+                F = linalg.materialize(F, field_token)
         activation, fiber = particle_activation(body, actuation, design)
         tau = linalg.add(stress_model(F, mu, lam), actuation_stress(F, activation, linalg.split_vec(fiber)))
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).

@@ -130,6 +130,9 @@ def test_bad_materials_and_dimension_mismatch_fail_clearly():
         Material(youngs_modulus=50.0)
     with pytest.raises(SimConfigError, match="poisson_ratio"):
         Material(poisson_ratio=0.5)
+    for stretch in (1.0, 0.0, float("nan"), None):
+        with pytest.raises(SimConfigError, match="max_stretch must be a number > 1"):
+            Material(max_stretch=stretch)
     config3 = SimConfig(grid_shape=(32, 32, 32), dx=1 / 32, dt=1e-3, gravity=(0, -1, 0))
     with pytest.raises(SimConfigError, match="2D but its grid is 3D"):
         Robot("flat", small_layout(), config3)

@@ -1,0 +1,75 @@
+"""Strain limiting: past a largest principal stretch, a particle yields instead of stretching.
+
+A particle torn from its neighbours (a leg's edge pulled hard at dx 1/128) keeps its elastic
+stress, and the fixed-corotated stress's stiffness grows with stretch: the time step chosen for
+the material at rest (`litl.robots.design.TARGET_CFL`) is then too long for it, it rings on its own
+stencil and the rollout blows up (docs/results/2026-11-26-paper-scale-stability.md). Clamping the
+singular values of the deformation gradient F at ``max_stretch`` after each update (plastic yield,
+as MPM's snow and sand models clamp theirs) bounds that stress.
+
+Particles that never reach the bound are untouched, bit for bit, values and gradients alike. The
+clamp needs no SVD: with C = F^T F = V diag(sigma^2) V^T, the clamped gradient is
+F h(C), h(lambda) = min(1, s / sqrt(lambda)), and h(C) is the polynomial in C that interpolates h
+at C's eigenvalues (Newton's form, whose divided differences stay finite where eigenvalues repeat).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from litl.sim import linalg
+
+# Eigenvalues of C closer than this fraction of max_stretch^2 count as equal in the divided
+# differences (which then use derivatives): float32 cancellation stays below ~1e-4 relative.
+_MERGE = 1e-3
+
+
+def largest_stretch(F: linalg.Mat):
+    """(n,) largest singular value of each particle's deformation gradient."""
+    return jnp.sqrt(linalg.symmetric_eigenvalues(linalg.matmul(linalg.transpose(F), F))[0])
+
+
+def limit_stretch(F: linalg.Mat, max_stretch: float) -> linalg.Mat:
+    """F with every singular value above `max_stretch` set to `max_stretch` (per-component F)."""
+    C = linalg.matmul(linalg.transpose(F), F)
+    eigenvalues = linalg.symmetric_eigenvalues(C)
+    # The clamp is evaluated for every particle and kept where the largest stretch is over the
+    # bound; its derivatives are finite everywhere (repeated eigenvalues included), so the
+    # discarded ones cannot turn the kept gradient into NaN.
+    over = eigenvalues[0] > max_stretch * max_stretch
+    clamped = linalg.matmul(F, _clamp_function(C, eigenvalues, max_stretch))
+    return [
+        [jnp.where(over, x, y) for x, y in zip(rc, rf, strict=True)]
+        for rc, rf in zip(clamped, F, strict=True)
+    ]
+
+
+def _clamp_function(C: linalg.Mat, eig: list, cap: float) -> linalg.Mat:
+    """h(C) for h(lambda) = min(1, cap / sqrt(lambda)), C symmetric positive semi-definite with
+    eigenvalues `eig` (largest first)."""
+    cap_sq = cap * cap
+
+    def h(x):
+        return cap * jnp.reciprocal(jnp.sqrt(jnp.maximum(x, cap_sq)))
+
+    def dh(x):  # h'
+        return jnp.where(x > cap_sq, -0.5 * h(x) / x, 0.0)
+
+    def ddh(x):  # h''
+        return jnp.where(x > cap_sq, 0.75 * h(x) / (x * x), 0.0)
+
+    def divided(a, b, fa, fb, derivative):
+        # (fa - fb) / (a - b), or the derivative at their midpoint where a and b merge (a >= b).
+        apart = a - b > _MERGE * cap_sq
+        return jnp.where(apart, (fa - fb) / jnp.where(apart, a - b, 1.0), derivative(0.5 * (a + b)))
+
+    first = divided(eig[0], eig[1], h(eig[0]), h(eig[1]), dh)
+    identity = linalg.identity(len(C), eig[0])
+    shifted = linalg.sub(C, linalg.scale(identity, eig[0]))
+    result = linalg.add(linalg.scale(identity, h(eig[0])), linalg.scale(shifted, first))
+    if len(C) == 3:
+        second_low = divided(eig[1], eig[2], h(eig[1]), h(eig[2]), dh)
+        second = divided(eig[0], eig[2], first, second_low, lambda x: 0.5 * ddh(x))
+        product = linalg.matmul(shifted, linalg.sub(C, linalg.scale(identity, eig[1])))
+        result = linalg.add(result, linalg.scale(product, second))
+    return result
