@@ -129,3 +129,19 @@ def test_a_bound_that_is_not_a_stretch_is_refused(bad):
     config = block(2, n_grid=16)[0]
     with pytest.raises(SimConfigError, match="max_stretch must be a finite number > 1"):
         dataclasses.replace(config, max_stretch=bad)
+
+
+def test_a_limit_never_reached_changes_states_and_gradients_only_by_rounding():
+    """Float32, as the loop runs: the same rollout with no limit and with one it never reaches."""
+    results = []
+    for cap in (None, 1e6):
+        config, body, design, state = block(2, n_grid=16, lower=0.3, size=0.25, youngs=30.0)
+        rollout = make_rollout(dataclasses.replace(config, max_stretch=cap), body, sine_policy, 60)
+
+        def loss(p, rollout=rollout, design=design, state=state):
+            final, _ = rollout(p, design, state)
+            return jnp.mean(final.x[:, 0]) + jnp.mean(final.F[:, 1, 1]), final
+
+        (value, final), grad = jax.jit(jax.value_and_grad(loss, has_aux=True))(sine_params(body.n_actuators))
+        results.append((final.x, final.F, value, grad))
+    chex.assert_trees_all_close(results[0], results[1], rtol=1e-5, atol=1e-7)
