@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import pathlib
 import sys
 from typing import Any, cast
@@ -69,10 +68,10 @@ def load_run_config(run_dir: pathlib.Path):
         material = Material(**saved.get("material", {}))
         if material != robot.material:
             robot = robot.with_material(material)
-    # Runs before the strain limit (no max_stretch in their material) were purely elastic.
-    limit = saved.get("material", {}).get("max_stretch", math.inf)
-    if robot.material.max_stretch != limit:
-        robot = robot.with_material(dataclasses.replace(robot.material, max_stretch=limit))
+    # The run's strain limit as it simulated; runs from before the limit (no key) had none.
+    limit = saved.get("max_stretch")
+    if robot.config.max_stretch != limit:
+        robot = dataclasses.replace(robot, config=dataclasses.replace(robot.config, max_stretch=limit))
     check_observer(config)
     found = {"robot": robot.name, "particles": robot.layout.n_particles, "dt": robot.config.dt}
     recorded = {key: saved.get(key) for key in found}

@@ -97,3 +97,20 @@ def test_a_directory_that_is_not_a_finished_run_is_refused(tmp_path):
     (tmp_path / "final").mkdir()
     with pytest.raises(ReplayError, match="run.json cannot be read"):
         replay(tmp_path)
+
+
+def test_a_run_from_before_the_strain_limit_replays_without_it(finished_run, tmp_path):
+    import shutil
+
+    from litl.replay import load_run_config
+
+    robot, _ = load_run_config(finished_run)
+    saved = json.loads((finished_run / "run.json").read_text())
+    assert robot.config.max_stretch == saved["max_stretch"] == saved["material"]["max_stretch"] == 3.0
+    older = tmp_path / "older"
+    shutil.copytree(finished_run, older)
+    # What run.json held before the limit existed.
+    del saved["max_stretch"], saved["material"]["max_stretch"]
+    (older / "run.json").write_text(json.dumps(saved))
+    robot, _ = load_run_config(older)
+    assert robot.config.max_stretch is None

@@ -89,6 +89,7 @@ def settings(robot: Robot, config: Config, algorithm) -> dict:
         "dx": robot.config.dx,
         "dt": robot.config.dt,
         "material": json.loads(json.dumps(dataclasses.asdict(robot.material))),
+        "max_stretch": robot.config.max_stretch,  # the simulator's strain limit (None: none)
         "steps": algorithm.steps,
         "config": json.loads(json.dumps(config.run_settings())),
         "observer": {"learned": algorithm.observer.learned, "reads": list(algorithm.observer.reads)},
@@ -274,6 +275,9 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
         # Settings recorded under keys that have moved since, and the observer's description,
         # which follows from them (what the report reads); the backend is not a setting.
         found = {**found, "config": upgrade(found["config"]), "observer": wanted["observer"]}
+        if "max_stretch" not in found:  # a run from before the strain limit: purely elastic
+            found["max_stretch"] = None
+            found["material"] = {**found.get("material", {}), "max_stretch": math.inf}
         found.pop("backend", None)
         found.pop("resumed_on", None)
         if found != wanted:

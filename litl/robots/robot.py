@@ -111,11 +111,15 @@ class Robot:
 
     def with_material(self, material: Material) -> Robot:
         """This robot with another `Material`; dt follows the stiffest allowed design
-        (`Material.time_step`), the strain limit the material's `max_stretch`, and a rollout
+        (`Material.time_step`), the strain limit follows the material's `max_stretch` where that
+        changed (a robot with a `SimConfig` of its own keeps its limit otherwise), and a rollout
         keeps its duration in seconds."""
         duration = self.steps * self.config.dt
         dt = material.time_step(self.config.dx)
-        config = dataclasses.replace(self.config, dt=dt, max_stretch=material.stretch_limit)
+        limit = self.config.max_stretch
+        if material.max_stretch != self.material.max_stretch:
+            limit = material.stretch_limit
+        config = dataclasses.replace(self.config, dt=dt, max_stretch=limit)
         return dataclasses.replace(
             self, material=material, config=config, steps=max(int(round(duration / dt)), 1)
         )

@@ -7,9 +7,11 @@ stencil and the rollout blows up (docs/results/2026-11-26-paper-scale-stability.
 singular values of the deformation gradient F at ``max_stretch`` after each update (plastic yield,
 as MPM's snow and sand models clamp theirs) bounds that stress.
 
-Particles that never reach the bound are untouched, bit for bit, values and gradients alike. The
-clamp needs no SVD: with C = F^T F = V diag(sigma^2) V^T, the clamped gradient is
-F h(C), h(lambda) = min(1, s / sqrt(lambda)), and h(C) is the polynomial in C that interpolates h
+A particle that never reaches the bound keeps its F exactly (the clamp's branch is not taken);
+a rollout that never reaches it agrees with one without the limit to rounding (the program
+differs, so the backward pass may round differently). The clamp needs no SVD: with
+C = F^T F = V diag(sigma^2) V^T, the clamped deformation gradient is F h(C),
+h(lambda) = min(1, max_stretch / sqrt(lambda)), and h(C) is the polynomial in C that interpolates h
 at C's eigenvalues (Newton's form, whose divided differences stay finite where eigenvalues repeat).
 """
 

@@ -151,6 +151,25 @@ def test_a_run_directory_refuses_other_settings(vae_run):
     assert (vae_run.run_dir / "metrics.jsonl").read_text() == before
 
 
+def test_a_run_from_before_the_strain_limit_resumes_only_without_it(vae_run, tmp_path):
+    import dataclasses
+    import shutil
+
+    older = tmp_path / "older"
+    shutil.copytree(vae_run.run_dir, older)
+    saved = json.loads((older / "run.json").read_text())
+    del saved["max_stretch"], saved["material"]["max_stretch"]  # run.json before the limit
+    (older / "run.json").write_text(json.dumps(saved))
+    before = (older / "metrics.jsonl").read_text()
+    with pytest.raises(RunDirectoryError, match=r"other settings .*'material.max_stretch', 'max_stretch'"):
+        run(tiny_robot(), tiny_config(loop={"episodes": 3}), older, progress=False)
+    assert (older / "metrics.jsonl").read_text() == before
+    elastic = tiny_robot().with_material(dataclasses.replace(tiny_robot().material, max_stretch=float("inf")))
+    assert elastic.config.max_stretch is None
+    resumed = run(elastic, tiny_config(loop={"episodes": 3}), older, progress=False)
+    assert len(resumed.metrics) == len(vae_run.metrics)  # nothing left to run: it was finished
+
+
 def test_an_unusable_logger_fails_before_any_directory_is_made(tmp_path, monkeypatch):
     from litl.config import SettingsError
 
