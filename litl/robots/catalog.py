@@ -10,6 +10,7 @@ coarsen it for quick ones.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from importlib import resources
 from typing import Any
@@ -277,12 +278,20 @@ def _legs_3d(positions, width, depth, height, first_actuator, first_region):
 # their middles sagged under gravity to the floor within 1 s, passively (torso mid-bottom 0.060 above
 # the floor on average over 0.5-1 s, touching it after the first landing). Twice the stiffness
 # halves the sag (0.083, never below 0.041); twice the actuator strength keeps the actuation strain.
-WALKER_3D_MATERIAL = Material(youngs_modulus=40.0, youngs_modulus_bounds=(30.0, 60.0), actuator_strength=6.0)
+# The 3D walkers are purely elastic (max_stretch inf): no 3D rollout has blown up the way a torn
+# 2D leg particle did at dx 1/128, and on XLA:CPU the strain limit costs the 3D step far more than
+# the 2D one (benchmarks/sim_speed.py quadruped3d: forward+backward 16.6 s -> 24.0 s, against
+# +10% for the 2D walker). `robot.material.max_stretch=3` turns it on.
+WALKER_3D_MATERIAL = Material(
+    youngs_modulus=40.0, youngs_modulus_bounds=(30.0, 60.0), actuator_strength=6.0, max_stretch=math.inf
+)
 # The curved quadruped's arch resists its legs splaying only by bending: at E 30-60 the learned
 # controller flattened it and the body stretched forward (0.19 per second, feet creeping, slip
 # 0.25-0.43); at E 40-100, actuator strength 9 (the same actuation strain) the arch held and it
 # bounded 0.29 per second, feet lifted 62-79% (docs/results/2026-11-26-curved-quadruped.md).
-CURVED_3D_MATERIAL = Material(youngs_modulus=60.0, youngs_modulus_bounds=(40.0, 100.0), actuator_strength=9.0)
+CURVED_3D_MATERIAL = Material(
+    youngs_modulus=60.0, youngs_modulus_bounds=(40.0, 100.0), actuator_strength=9.0, max_stretch=math.inf
+)
 
 
 def _walker_3d(name, dx, torso_parts, leg_xs, width, leg, description, material=WALKER_3D_MATERIAL):

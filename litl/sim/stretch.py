@@ -31,24 +31,41 @@ def largest_stretch(F: linalg.Mat):
     return jnp.sqrt(linalg.symmetric_eigenvalues(linalg.matmul(linalg.transpose(F), F))[0])
 
 
-def limit_stretch(F: linalg.Mat, max_stretch: float) -> linalg.Mat:
-    """F with every singular value above `max_stretch` set to `max_stretch` (per-component F)."""
+def limit_stretch(F: linalg.Mat, max_stretch: float, token=None) -> linalg.Mat:
+    """F with every singular value above `max_stretch` set to `max_stretch` (per-component F).
+
+    `token` (as `linalg.materialize` takes it): compute the per-particle scalars the clamp's
+    entries share into buffers first; XLA:CPU otherwise recomputes the eigenvalues for every entry
+    that reads them (the 3D quadruped's forward pass with the limit: 7.3 s without, 5.3 s with,
+    4.3 s without the limit; the 2D walker's forward+backward is slower with it, 1.34 s against
+    0.93 s).
+    """
     C = linalg.matmul(linalg.transpose(F), F)
-    eigenvalues = linalg.symmetric_eigenvalues(C)
+    eig = linalg.symmetric_eigenvalues(C)
     # The clamp is evaluated for every particle and kept where the largest stretch is over the
     # bound; its derivatives are finite everywhere (repeated eigenvalues included), so the
     # discarded ones cannot turn the kept gradient into NaN.
-    over = eigenvalues[0] > max_stretch * max_stretch
-    clamped = linalg.matmul(F, _clamp_function(C, eigenvalues, max_stretch))
+    over = eig[0] > max_stretch * max_stretch
+    coefficients = _newton_coefficients(eig, max_stretch)
+    if token is not None:
+        over, eig, coefficients = linalg.materialize((over, eig, coefficients), token)
+    # h(C) = a0 I + a1 (C - l0 I) [+ a2 (C - l0 I)(C - l1 I) in 3D]
+    identity = linalg.identity(len(F), eig[0])
+    shifted = linalg.sub(C, linalg.scale(identity, eig[0]))
+    h = linalg.add(linalg.scale(identity, coefficients[0]), linalg.scale(shifted, coefficients[1]))
+    if len(F) == 3:
+        product = linalg.matmul(shifted, linalg.sub(C, linalg.scale(identity, eig[1])))
+        h = linalg.add(h, linalg.scale(product, coefficients[2]))
+    clamped = linalg.matmul(F, h)
     return [
         [jnp.where(over, x, y) for x, y in zip(rc, rf, strict=True)]
         for rc, rf in zip(clamped, F, strict=True)
     ]
 
 
-def _clamp_function(C: linalg.Mat, eig: list, cap: float) -> linalg.Mat:
-    """h(C) for h(lambda) = min(1, cap / sqrt(lambda)), C symmetric positive semi-definite with
-    eigenvalues `eig` (largest first)."""
+def _newton_coefficients(eig: list, cap: float) -> list:
+    """Newton's divided differences of h(lambda) = min(1, cap / sqrt(lambda)) at the eigenvalues
+    `eig` of C (largest first): h(C) = sum_k a_k prod_{j<k} (C - eig_j I)."""
     cap_sq = cap * cap
 
     def h(x):
@@ -66,12 +83,7 @@ def _clamp_function(C: linalg.Mat, eig: list, cap: float) -> linalg.Mat:
         return jnp.where(apart, (fa - fb) / jnp.where(apart, a - b, 1.0), derivative(0.5 * (a + b)))
 
     first = divided(eig[0], eig[1], h(eig[0]), h(eig[1]), dh)
-    identity = linalg.identity(len(C), eig[0])
-    shifted = linalg.sub(C, linalg.scale(identity, eig[0]))
-    result = linalg.add(linalg.scale(identity, h(eig[0])), linalg.scale(shifted, first))
-    if len(C) == 3:
-        second_low = divided(eig[1], eig[2], h(eig[1]), h(eig[2]), dh)
-        second = divided(eig[0], eig[2], first, second_low, lambda x: 0.5 * ddh(x))
-        product = linalg.matmul(shifted, linalg.sub(C, linalg.scale(identity, eig[1])))
-        result = linalg.add(result, linalg.scale(product, second))
-    return result
+    if len(eig) == 2:
+        return [h(eig[0]), first]
+    second_low = divided(eig[1], eig[2], h(eig[1]), h(eig[2]), dh)
+    return [h(eig[0]), first, divided(eig[0], eig[2], first, second_low, lambda x: 0.5 * ddh(x))]
