@@ -29,8 +29,9 @@ from litl.sim import Design, SimConfigError
 # significant digits, which gives the catalog's robots dt = dx / 10.
 TARGET_CFL = 0.63
 
-# The largest principal stretch the catalog's materials keep before yielding (`SimConfig.max_stretch`,
-# `litl.sim.stretch`). Set from the biped at dx 1/128: see `Material.max_stretch`.
+# The largest principal stretch a `Material` keeps before yielding by default (`SimConfig.max_stretch`,
+# `litl.sim.stretch`): the catalog's 2D robots' (its 3D walkers set inf). Set from the biped at
+# dx 1/128: see `Material.max_stretch`.
 MAX_STRETCH = 3.0
 
 

@@ -138,9 +138,10 @@ class SimConfig:
         gradient above this bound (> 1) is clamped to it, i.e. the material yields plastically
         instead of stretching further (`litl.sim.stretch`). It bounds the stress of a particle
         torn from the body, whose stiffening under stretch the time step does not cover (at
-        dx 1/128 such a particle blew rollouts up). Particles that never reach it are untouched,
-        bit for bit. None: purely elastic (ChainQueen / DiffTaichi, the published walker's scene);
-        the catalog's robots use `litl.robots.catalog.MAX_STRETCH`.
+        dx 1/128 such a particle blew rollouts up). A particle that never reaches it keeps its F
+        exactly; a rollout that never reaches it agrees with an unlimited one to rounding. None:
+        purely elastic (ChainQueen / DiffTaichi, the published walker's scene, the 3D walkers);
+        the catalog's 2D robots use `litl.robots.design.MAX_STRETCH` (`Material.max_stretch`).
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;

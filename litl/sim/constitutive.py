@@ -14,16 +14,12 @@ import jax.numpy as jnp
 from litl.sim import linalg
 
 
-def _add_to_diagonal(m, value):
-    return [[x + value if i == j else x for j, x in enumerate(row)] for i, row in enumerate(m)]
-
-
 def fixed_corotated(F, mu, lam):
     """tau = 2 mu (F - R) F^T + lam (J - 1) J I (ChainQueen / DiffTaichi form)."""
     R = linalg.polar_rotation(F)
     J = linalg.det(F)
     shear = linalg.scale(linalg.matmul_transposed(linalg.sub(F, R), F), 2 * mu)
-    return _add_to_diagonal(shear, lam * (J - 1) * J)
+    return linalg.add_to_diagonal(shear, lam * (J - 1) * J)
 
 
 def neo_hookean(F, mu, lam):
@@ -31,7 +27,7 @@ def neo_hookean(F, mu, lam):
     J = linalg.det(F)
     # log(J) is undefined for inverted particles (J <= 0); such a state is reported as non-finite.
     shear = linalg.scale(linalg.matmul_transposed(F, F), mu)
-    return _add_to_diagonal(shear, lam * jnp.log(J) - mu)
+    return linalg.add_to_diagonal(shear, lam * jnp.log(J) - mu)
 
 
 CONSTITUTIVE_MODELS = {"fixed_corotated": fixed_corotated, "neo_hookean": neo_hookean}

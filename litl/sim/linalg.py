@@ -136,6 +136,11 @@ def outer(u: Vec, v: Vec) -> Mat:
     return [[x * y for y in v] for x in u]
 
 
+def add_to_diagonal(a: Mat, value) -> Mat:
+    """a + value I (value a scalar or an array per matrix)."""
+    return [[x + value if i == j else x for j, x in enumerate(row)] for i, row in enumerate(a)]
+
+
 def trace(a: Mat):
     return sum(a[i][i] for i in range(len(a)))
 
@@ -243,14 +248,10 @@ def symmetric_eigenvalues(a: Mat) -> list:
         return [mean + radius, mean - radius]
     off = a[0][1] * a[1][0] + a[0][2] * a[2][0] + a[1][2] * a[2][1]
     spread = jnp.sqrt((sum((a[i][i] - mean) ** 2 for i in range(3)) + 2 * off) / 6 + floor)
-    shifted = _add_scaled_identity(a, -mean)
+    shifted = add_to_diagonal(a, -mean)
     half_det = det(scale(shifted, 1.0 / spread)) / 2
     # |half_det| <= 1 mathematically; at +-1 two eigenvalues repeat and acos' is infinite.
     angle = jnp.arccos(jnp.clip(half_det, -1 + 1e-6, 1 - 1e-6)) / 3
     largest = mean + 2 * spread * jnp.cos(angle)
     smallest = mean + 2 * spread * jnp.cos(angle + 2 * jnp.pi / 3)
     return [largest, 3 * mean - largest - smallest, smallest]
-
-
-def _add_scaled_identity(a: Mat, value) -> Mat:
-    return [[x + value if i == j else x for j, x in enumerate(row)] for i, row in enumerate(a)]
