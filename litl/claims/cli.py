@@ -104,6 +104,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(args: argparse.Namespace, command: str) -> int:
     from litl.app import compose
+    from litl.claims.origins import check_resumable
     from litl.claims.suite import ClaimsError, check_sizes, finished_records
 
     scale = SCALES[args.scale]
@@ -135,6 +136,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
         return 0
     check_sizes(out, suite, config_of)
     if not args.report_only:
+        check_resumable(out, suite, config_of)
         _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
     groups, unfinished = load_groups(out, suite, config_of)
     results = verdicts(groups, args.methods, args.level)

@@ -44,7 +44,7 @@ import numpy as np
 import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from litl import backend
+from litl import backend, provenance
 from litl.config import Config, flatten, seeds_at_once, upgrade
 from litl.errors import UserError
 from litl.loop.algorithm import SKIP_REASONS, Best, LoopState, make_algorithm, seed_slice, stack_seeds
@@ -278,42 +278,54 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
         if "max_stretch" not in found:  # a run from before the strain limit: purely elastic
             found["max_stretch"] = None
             found["material"] = {**found.get("material", {}), "max_stretch": math.inf}
-        found.pop("backend", None)
-        found.pop("resumed_on", None)
+        for record in ("backend", "provenance", "resumed_on"):  # where it ran, not how
+            found.pop(record, None)
         if found != wanted:
             found, wanted_flat = flatten(found), flatten(wanted)
             changed = sorted(k for k in set(found) | set(wanted_flat) if found.get(k) != wanted_flat.get(k))
+            hint = ""
+            if "max_stretch" in changed:  # method=paper runs elastic since 2026-11-27: say how
+                limit = found["max_stretch"]
+                hint = f" (it was made with robot.material.max_stretch={'inf' if limit is None else limit})"
             raise RunDirectoryError(
-                f"{run_dir} holds a run with other settings (differences in {changed}); resume it "
-                f"with the same settings or choose a new run directory. Nothing was changed."
+                f"{run_dir} holds a run with other settings (differences in {changed}){hint}; resume "
+                f"it with the same settings or choose a new run directory. Nothing was changed."
             )
-        _say_if_backend_changed(run_dir, json.loads(settings_file.read_text()))
+        _say_if_resumed_elsewhere(run_dir, json.loads(settings_file.read_text()))
     else:
-        settings_file.write_text(json.dumps({**wanted, "backend": backend.record()}, indent=1))
+        settings_file.write_text(
+            json.dumps({**wanted, "backend": backend.record(), "provenance": provenance.record()}, indent=1)
+        )
     for name, text in config_files.items():
         (run_dir / name).parent.mkdir(parents=True, exist_ok=True)
         (run_dir / name).write_text(text)
 
 
-def _say_if_backend_changed(run_dir: pathlib.Path, found: dict) -> None:
-    """A run resumed in another determinism mode or on another platform than it started on is
-    told so, and run.json lists the backends it was resumed on: its results can no longer be
-    expected to equal an uninterrupted run's bit for bit."""
-    started, now = found.get("backend"), backend.record()
-    if started is None:
+def _say_if_resumed_elsewhere(run_dir: pathlib.Path, found: dict) -> None:
+    """A run resumed in another determinism mode, on another platform or by another litl
+    (commit) than it started with is told so, and run.json lists what it was resumed on: its
+    results can no longer be expected to equal an uninterrupted run's bit for bit."""
+    started, now = found.get("backend") or {}, backend.record()
+    started_by, now_by = found.get("provenance"), provenance.record()
+    differs = [key for key in ("determinism", "platform") if started and started.get(key) != now[key]]
+    if differs:
+        was = ", ".join(f"{key} {started.get(key)}" for key in differs)
+        is_now = ", ".join(f"{key} {now[key]}" for key in differs)
+        say(
+            f"litl: warning: {run_dir} was started with {was} and is resumed with {is_now}: the "
+            f"resumed run will not equal an uninterrupted one bit for bit (set {backend.SWITCH}="
+            f"{started.get('determinism')} to resume in the mode it started in)."
+        )
+    other_litl = started_by is not None and started_by.get("commit") != now_by.get("commit")
+    if other_litl:
+        say(
+            f"litl: warning: {run_dir} was started by {provenance.describe(started_by)} and is "
+            f"resumed by {provenance.describe(now_by)}: its iterations come from two versions of litl."
+        )
+    if not differs and not other_litl:
         return
-    differs = [key for key in ("determinism", "platform") if started.get(key) != now[key]]
-    if not differs:
-        return
-    was = ", ".join(f"{key} {started.get(key)}" for key in differs)
-    is_now = ", ".join(f"{key} {now[key]}" for key in differs)
-    say(
-        f"litl: warning: {run_dir} was started with {was} and is resumed with {is_now}: the "
-        f"resumed run will not equal an uninterrupted one bit for bit (set {backend.SWITCH}="
-        f"{started.get('determinism')} to resume in the mode it started in)."
-    )
     recorded = json.loads((run_dir / "run.json").read_text())
-    recorded.setdefault("resumed_on", []).append(now)
+    recorded.setdefault("resumed_on", []).append({**now, "provenance": now_by})
     (run_dir / "run.json").write_text(json.dumps(recorded, indent=1))
 
 

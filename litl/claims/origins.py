@@ -1,0 +1,128 @@
+"""Which litl and which material made each cell of a claims suite.
+
+A claim compares cells, so a table is citable only when it says which litl (commit) and which
+material (elastic, or the strain limit's value) made them; and a cell resumed by another commit
+or with another material would mix two programs in one curve. `check_resumable` refuses that
+before anything runs; `describe` gives the lines a claims table prints; `commits` says whether a
+table mixes cells of several commits.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from litl import provenance
+from litl.claims.suite import Cell, ClaimsError, expected_records, finished_records
+from litl.config import Config
+
+
+@dataclasses.dataclass(frozen=True)
+class Origin:
+    """What made a cell's run (its run.json).
+
+    Attributes:
+      commit: the git commit of the litl that started it (None: not from a checkout, or a run from
+        before litl recorded it).
+      recorded: run.json's "provenance" (None: a run from before 2026-11-27).
+      max_stretch: the simulator's strain limit (None: purely elastic).
+    """
+
+    commit: str | None
+    recorded: dict[str, Any] | None
+    max_stretch: float | None
+
+    @property
+    def litl(self) -> str:
+        return provenance.describe(self.recorded)
+
+
+def origin(run_dir: str | os.PathLike[str]) -> Origin | None:
+    """The origin of the run in `run_dir` (None: no run.json yet)."""
+    path = os.path.join(run_dir, "run.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as file:
+        saved = json.load(file)
+    recorded = saved.get("provenance")
+    # A run from before the strain limit has no "max_stretch": it was purely elastic.
+    return Origin(recorded.get("commit") if recorded else None, recorded, saved.get("max_stretch"))
+
+
+def material(max_stretch: float | None) -> str:
+    """The material in words: ``elastic`` or ``yields past a stretch of 3``."""
+    return "elastic (no strain limit)" if max_stretch is None else f"yields past a stretch of {max_stretch:g}"
+
+
+def check_resumable(
+    out: str | os.PathLike[str], suite: Sequence[Cell], config_of: Callable[[Cell], Config]
+) -> None:
+    """Refuse (`ClaimsError`, before anything runs) to resume an unfinished cell that another
+    commit of litl started, or that ran another material than `config_of(cell)` asks for; the
+    message names both, and nothing is changed. Finished cells are only read, never refused."""
+    from litl.app import build_robot
+
+    commit, dirty = provenance.checkout()
+    now = provenance.describe({"litl": _version(), "commit": commit, "dirty": dirty})
+    for cell in suite:
+        run_dir = cell.run_dir(out)
+        found = origin(run_dir)
+        config = config_of(cell)
+        if found is None or finished_records(run_dir) >= expected_records(config):
+            continue
+        if found.commit != commit:
+            raise ClaimsError(
+                f"{cell.name} ({run_dir}) was started by {found.litl}; this is {now}. A cell resumed "
+                f"by another litl would mix two programs in one run: resume it from that commit "
+                f"(git worktree add DIR {found.commit or '<its commit>'}), or give another --out. "
+                f"Nothing was changed."
+            )
+        wanted = build_robot(config).config.max_stretch
+        if found.max_stretch != wanted:
+            raise ClaimsError(
+                f"{cell.name} ({run_dir}) was run with a material that {material(found.max_stretch)}; "
+                f"this suite asks for one that {material(wanted)}. Give another --out, or resume it "
+                f"with the material it was made with. Nothing was changed."
+            )
+
+
+def _version() -> str:
+    from litl import __version__
+
+    return __version__
+
+
+def origins(out: str | os.PathLike[str], suite: Sequence[Cell]) -> dict[str, Origin]:
+    """{cell name: its origin} of the cells that have a run.json."""
+    found = {cell.name: origin(cell.run_dir(out)) for cell in suite}
+    return {name: o for name, o in found.items() if o is not None}
+
+
+def commits(found: dict[str, Origin]) -> dict[str, list[str]]:
+    """{litl description: the cells it made}, in the suite's order."""
+    made: dict[str, list[str]] = {}
+    for name, o in found.items():
+        made.setdefault(o.litl, []).append(name)
+    return made
+
+
+def describe(found: dict[str, Origin]) -> list[str]:
+    """Markdown lines for a claims table: which litl and which material made its cells."""
+    if not found:
+        return []
+    lines = []
+    made = commits(found)
+    if len(made) == 1:
+        lines.append(f"Made by {next(iter(made))}.")
+    else:
+        lines.append(f"Made by {len(made)} versions of litl (their verdicts mix programs):")
+        lines += [f"- {litl}: {', '.join(cells)}" for litl, cells in made.items()]
+    materials: dict[str, list[str]] = {}
+    for name, o in found.items():
+        materials.setdefault(material(o.max_stretch), []).append(name.split("/")[0])
+    parts = [f"{m} ({', '.join(sorted(set(methods)))})" for m, methods in materials.items()]
+    lines.append(f"Material: {'; '.join(parts)}.")
+    return lines

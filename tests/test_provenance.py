@@ -1,0 +1,202 @@
+"""Which litl made a run: run.json's provenance, resuming by another commit, the claims suite's
+refusal to mix commits or materials in one cell, and `method=paper`'s elastic material."""
+
+import json
+import pathlib
+import platform
+import re
+import shutil
+import subprocess
+
+import pytest
+
+import litl
+from litl import provenance
+from litl.loop.run import RunDirectoryError, _claim, run
+from tests.loop.tiny import tiny_config, tiny_robot
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def test_the_record_names_litl_its_commit_and_the_processor(monkeypatch):
+    recorded = provenance.record()
+    assert recorded["litl"] == litl.__version__
+    if (ROOT / ".git").exists():  # tests run from a checkout (CI: a fresh clone)
+        assert re.fullmatch(r"[0-9a-f]{40}", recorded["commit"])
+        head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+        assert recorded["commit"] == head.stdout.strip()
+        assert isinstance(recorded["dirty"], bool)
+    cpu = recorded["processor"]
+    assert cpu["machine"] == platform.machine()
+    assert set(cpu["extensions"]) <= set(provenance.X86_EXTENSIONS)
+    # The cap on XLA's instruction set is read from XLA_FLAGS as the process has them.
+    provenance.processor.cache_clear()
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_max_isa=AVX2 --xla_gpu_deterministic_ops=true")
+    assert provenance.processor()["xla_cpu_max_isa"] == "AVX2"
+    provenance.processor.cache_clear()
+
+
+def _git(repo, *args):
+    subprocess.run(
+        ["git", "-C", str(repo), "-c", "user.name=t", "-c", "user.email=t@t", *args],
+        check=True,
+        capture_output=True,
+    )
+
+
+def test_a_checkout_gives_its_commit_and_whether_tracked_files_changed(tmp_path):
+    assert provenance.checkout(tmp_path) == (None, None)  # not a checkout: a pip-installed litl
+    _git(tmp_path, "init", "-q")
+    (tmp_path / "tracked.py").write_text("a = 1\n")
+    _git(tmp_path, "add", "tracked.py")
+    _git(tmp_path, "commit", "-q", "-m", "one")
+    provenance.checkout.cache_clear()
+    commit, dirty = provenance.checkout(tmp_path)
+    assert re.fullmatch(r"[0-9a-f]{40}", commit) and dirty is False
+    (tmp_path / "outputs").mkdir()  # run outputs are untracked: still clean
+    (tmp_path / "outputs" / "run.json").write_text("{}")
+    provenance.checkout.cache_clear()
+    assert provenance.checkout(tmp_path) == (commit, False)
+    (tmp_path / "tracked.py").write_text("a = 2\n")
+    provenance.checkout.cache_clear()
+    assert provenance.checkout(tmp_path) == (commit, True)
+    provenance.checkout.cache_clear()
+
+
+def test_describe_says_which_litl_for_people():
+    assert provenance.describe({"litl": "0.1.0", "commit": "a" * 40, "dirty": True}) == (
+        "litl 0.1.0, commit aaaaaaaaaaaa (uncommitted changes)"
+    )
+    assert provenance.describe({"litl": "0.1.0", "commit": None, "dirty": None}) == "litl 0.1.0"
+    assert "not recorded" in provenance.describe(None)
+
+
+def test_run_json_records_provenance_and_a_resume_by_another_commit_says_so(tmp_path, capfd):
+    config = tiny_config(loop={"episodes": 2, "iterations": 1}, seeds=1, observer={"kind": "kmeans"})
+    run(tiny_robot(), config, tmp_path, progress=False, stop_after_episodes=1)
+    saved = json.loads((tmp_path / "run.json").read_text())
+    assert saved["provenance"] == json.loads(json.dumps(provenance.record()))
+    # As if another commit had started it: the resume goes on, says so, and records it.
+    saved["provenance"]["commit"] = "0" * 40
+    (tmp_path / "run.json").write_text(json.dumps(saved))
+    capfd.readouterr()
+    run(tiny_robot(), config, tmp_path, progress=False)
+    err = capfd.readouterr().err
+    assert "was started by litl 0.1.0, commit 000000000000" in err
+    assert "its iterations come from two versions of litl" in err
+    resumed = json.loads((tmp_path / "run.json").read_text())
+    assert resumed["provenance"]["commit"] == "0" * 40  # what it started with stays
+    assert [r["provenance"] for r in resumed["resumed_on"]] == [json.loads(json.dumps(provenance.record()))]
+
+
+def test_a_resume_with_another_strain_limit_names_the_one_it_was_made_with(tmp_path):
+    wanted = {"robot": "biped", "max_stretch": None, "material": {"max_stretch": float("inf")}, "config": {}}
+    made = {**wanted, "max_stretch": 3.0, "material": {"max_stretch": 3.0}}
+    (tmp_path / "run.json").write_text(json.dumps(made))
+    before = (tmp_path / "run.json").read_text()
+    with pytest.raises(RunDirectoryError, match=r"made with robot.material.max_stretch=3.0\).*Nothing was"):
+        _claim(tmp_path, {**wanted, "observer": {}}, {})
+    assert (tmp_path / "run.json").read_text() == before
+
+
+def test_method_paper_simulates_the_papers_elastic_material_unless_told_otherwise():
+    from litl.app import build_robot, compose
+    from litl.config import Config
+
+    assert build_robot(compose([])).config.max_stretch == 3.0  # litl's 2D material yields at 3
+    assert build_robot(compose(["method=paper"])).config.max_stretch is None
+    assert build_robot(compose(["experiment=fig4b_biped", "+scale=smoke"])).config.max_stretch is None
+    assert (
+        build_robot(compose(["experiment=fig4b_biped", "method=litl", "+scale=smoke"])).config.max_stretch
+        == 3.0
+    )
+    assert build_robot(compose(["method=paper", "robot.material.max_stretch=2.5"])).config.max_stretch == 2.5
+    assert Config.for_method("paper").robot.material.max_stretch == float("inf")  # the Python API too
+    # The time step is the material's, not the limit's.
+    assert build_robot(compose(["method=paper"])).config.dt == build_robot(compose([])).config.dt
+
+
+# --- the claims suite: one commit and one material per cell ---------------------------------
+
+
+def _cell_run(run_dir: pathlib.Path, commit: str | None, max_stretch, records: int = 0) -> None:
+    run_dir.mkdir(parents=True)
+    recorded = None if commit is None else {"litl": "0.1.0", "commit": commit, "dirty": False}
+    config = {"seeds": 2, "loop": {"episodes": 1, "iterations": 1}}
+    saved = {"config": config, "max_stretch": max_stretch, **({"provenance": recorded} if recorded else {})}
+    (run_dir / "run.json").write_text(json.dumps(saved))
+    (run_dir / "metrics.jsonl").write_text("{}\n" * records)
+
+
+@pytest.fixture
+def smoke_cells():
+    from litl.app import compose
+    from litl.claims.suite import SCALES, cells
+
+    suite = cells(["fig4b"], ["litl", "paper"])
+    configs = {}
+
+    def config_of(cell):
+        if cell.name not in configs:
+            configs[cell.name] = compose(
+                [*cell.overrides(SCALES["smoke"], 2), "loop.episodes=1", "loop.iterations=1"]
+            )
+        return configs[cell.name]
+
+    return suite, config_of
+
+
+def test_a_cell_started_by_another_commit_or_material_is_not_resumed(tmp_path, smoke_cells, monkeypatch):
+    from litl.claims.origins import check_resumable
+    from litl.claims.suite import ClaimsError
+
+    suite, config_of = smoke_cells
+    monkeypatch.setattr(provenance, "checkout", lambda root=None: ("c" * 40, False))
+    vae = suite[0]  # litl/fig4b/vae
+    _cell_run(vae.run_dir(tmp_path), "d" * 40, 3.0)
+    before = (vae.run_dir(tmp_path) / "run.json").read_text()
+    with pytest.raises(
+        ClaimsError,
+        match=r"litl/fig4b/vae .*started by litl 0.1.0, commit dddddddddddd; this is "
+        r"litl 0.1.0, commit cccccccccccc.*Nothing was changed",
+    ):
+        check_resumable(tmp_path, suite, config_of)
+    assert (vae.run_dir(tmp_path) / "run.json").read_text() == before
+    # A run from before provenance was recorded is another litl too.
+    shutil.rmtree(vae.run_dir(tmp_path))
+    _cell_run(vae.run_dir(tmp_path), None, 3.0)
+    with pytest.raises(ClaimsError, match="version not recorded"):
+        check_resumable(tmp_path, suite, config_of)
+    # The same commit with the paper's elastic material where litl's limit was asked for.
+    shutil.rmtree(vae.run_dir(tmp_path))
+    _cell_run(vae.run_dir(tmp_path), "c" * 40, None)
+    with pytest.raises(
+        ClaimsError,
+        match=r"material that elastic \(no strain limit\); this suite asks for one "
+        r"that yields past a stretch of 3",
+    ):
+        check_resumable(tmp_path, suite, config_of)
+    # A finished cell is only read: never refused.
+    (vae.run_dir(tmp_path) / "metrics.jsonl").write_text("{}\n" * 2)
+    paper_vae = next(c for c in suite if c.name == "paper/fig4b/vae")
+    _cell_run(paper_vae.run_dir(tmp_path), "c" * 40, None)  # the paper's material: resumable
+    check_resumable(tmp_path, suite, config_of)
+
+
+def test_a_claims_table_names_the_commits_and_materials_of_its_cells(tmp_path, smoke_cells):
+    from litl.claims.origins import describe, origins
+
+    suite, _ = smoke_cells
+    _cell_run(suite[0].run_dir(tmp_path), "a" * 40, 3.0)
+    _cell_run(suite[1].run_dir(tmp_path), "a" * 40, 3.0)
+    paper = [c for c in suite if c.method == "paper"]
+    _cell_run(paper[0].run_dir(tmp_path), "a" * 40, None)
+    lines = describe(origins(tmp_path, suite))
+    assert lines == [
+        "Made by litl 0.1.0, commit aaaaaaaaaaaa.",
+        "Material: yields past a stretch of 3 (litl); elastic (no strain limit) (paper).",
+    ]
+    _cell_run(paper[1].run_dir(tmp_path), "b" * 40, None)
+    lines = describe(origins(tmp_path, suite))
+    assert lines[0] == "Made by 2 versions of litl (their verdicts mix programs):"
+    assert lines[2] == "- litl 0.1.0, commit bbbbbbbbbbbb: paper/fig4b/kmeans"
