@@ -38,6 +38,7 @@ _SUBPACKAGES = (
     "claims",
     "config",
     "errors",
+    "provenance",
 )
 
 __all__ = [*_SUBPACKAGES, "__version__"]

@@ -200,3 +200,15 @@ def test_a_claims_table_names_the_commits_and_materials_of_its_cells(tmp_path, s
     lines = describe(origins(tmp_path, suite))
     assert lines[0] == "Made by 2 versions of litl (their verdicts mix programs):"
     assert lines[2] == "- litl 0.1.0, commit bbbbbbbbbbbb: paper/fig4b/kmeans"
+
+
+def test_a_horizon_other_than_the_committed_plans_is_allowed_and_said():
+    from litl.app import compose
+    from litl.claims.plan import PAPER_PLAN, departure_from_plan
+
+    planned = compose(["experiment=fig4b_biped", "loop.episodes=10", "seeds=10"])
+    assert departure_from_plan(planned) is None
+    longer = compose(["experiment=fig4b_biped"])  # the preset's 20 x 10
+    note = departure_from_plan(longer)
+    assert note is not None and "20 episodes x 10 iterations" in note and PAPER_PLAN.page in note
+    assert (ROOT / PAPER_PLAN.page).exists()  # the plan it names is committed

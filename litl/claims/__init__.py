@@ -5,13 +5,15 @@
     python -m litl.claims --scale smoke        # the whole suite shrunk to seconds per run
     python -m litl.claims --report-only        # judge what has finished so far
 
-Runs go to `OUT/runs/<method>/<panel>/<variant>` (a second call resumes them); `OUT/claims.md`
-and `claims.csv` hold one row per claim and method (means with 90% intervals, a one-sided Welch
-p-value, a verdict by a stated rule and the verdict that survives a Holm-Bonferroni correction
-over the table's tests, see `litl.claims.verdicts`; each verdict again at 60% of the
-iterations, and whether its curves were still falling at the end, see `litl.claims.cuts`),
-`table1.md` the paper's Table 1
-from the biped's runs, and `fig4a.png` ... `fig4d.png` the panels with 90% bands.
+Runs go to `OUT/runs/<method>/<panel>/<variant>` (a second call resumes them, refusing a cell
+that another commit of litl or another material started: `litl.claims.origins`); `OUT/claims.md`
+and `claims.csv` hold one row per claim and method: means with 90% intervals, a two-sided test's
+p-value and the verdict after a Holm-Bonferroni correction over the table's tests (the primary
+one) beside the unadjusted verdict (`litl.claims.rules`), the smallest difference the seeds could
+have detected, which litl and material made the cells, and each verdict again at 60% of the
+iterations with whether its curves were still falling at the end (`litl.claims.cuts`);
+`table1.md` the paper's Table 1 from the biped's runs, and `fig4a.png` ... `fig4d.png` the panels
+with 90% bands. `--rejudge CLAIMS_CSV` judges a published claims.csv again by the current rules.
 """
 
 from litl.claims.cli import main

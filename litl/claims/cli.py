@@ -9,15 +9,11 @@ import shlex
 import sys
 from collections.abc import Callable
 
+from litl.claims.markdown import claims_markdown
+from litl.claims.origins import check_resumable, commits, describe, origins
 from litl.claims.suite import PANEL_NAMES, SCALES, Cell, ClaimsError, Scale, cells, run_suite
-from litl.claims.tables import (
-    claims_markdown,
-    load_groups,
-    plot_panels,
-    table1_markdown,
-    verdicts,
-    write_csv,
-)
+from litl.claims.tables import load_groups, plot_panels, table1_markdown, verdicts, write_csv
+from litl.claims.verdicts import Verdict
 from litl.config import Config
 from litl.errors import exit_on_user_error
 
@@ -91,7 +87,19 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--list", action="store_true", help="print each run's command line and whether it has finished"
     )
+    parser.add_argument(
+        "--rejudge",
+        metavar="CLAIMS_CSV",
+        default=None,
+        help="run nothing: judge the rows of a claims.csv written earlier again by the current rules, "
+        "from its means, intervals (at --level) and seed counts, into OUT/claims.md and OUT/claims.csv "
+        "(rows whose rule needs the runs say so)",
+    )
     return parser
+
+
+# Flags about runs: with --rejudge nothing runs, so any of them other than its default is refused.
+RUN_FLAGS = ("panels", "methods", "comparators", "scale", "seeds", "episodes", "jobs", "report_only", "list")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -99,12 +107,43 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     command = " ".join(["python -m litl.claims", *map(shlex.quote, sys.argv[1:] if argv is None else argv)])
     with exit_on_user_error(parser.prog, os_errors=True):  # OSError: --out is the user's
+        if args.rejudge is not None:
+            return _rejudge(args, parser, command)
         return _main(args, command)
+
+
+def _rejudge(args: argparse.Namespace, parser: argparse.ArgumentParser, command: str) -> int:
+    """`--rejudge CLAIMS_CSV`: claims.md and claims.csv in OUT from a claims.csv's numbers."""
+    from litl.claims.rejudge import rejudge
+
+    given = [name for name in RUN_FLAGS if getattr(args, name) != parser.get_default(name)]
+    if given:
+        flags = ", ".join("--" + name.replace("_", "-") for name in given)
+        raise ClaimsError(f"--rejudge runs nothing, so {flags} make(s) no sense with it; leave them out")
+    if not 0 < args.level < 1:
+        raise ClaimsError(f"--level must lie in (0, 1), e.g. 0.9; got {args.level}")
+    out = pathlib.Path(args.out)
+    source = pathlib.Path(args.rejudge)
+    if (out / "claims.csv").resolve() == source.resolve():
+        raise ClaimsError(f"--out {out} would overwrite the claims.csv being re-judged; give another --out")
+    results = rejudge(source, args.level)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "claims.md").write_text(claims_markdown(results, args.level, command, [], {}, source=str(source)))
+    write_csv(results, out / "claims.csv")
+    _print_verdicts(results)
+    print(out / "claims.md")
+    return 0
+
+
+def _print_verdicts(results: list[Verdict]) -> None:
+    """One line per verdict: the verdict after Holm first, then the unadjusted one."""
+    width = max((len(v.claim.id) for v in results), default=5)
+    for v in results:
+        print(f"{v.claim.id:<{width}}  {v.method:<5}  {v.holm_verdict} (unadjusted: {v.verdict})")
 
 
 def _main(args: argparse.Namespace, command: str) -> int:
     from litl.app import compose
-    from litl.claims.origins import check_resumable
     from litl.claims.suite import ClaimsError, check_sizes, finished_records
 
     scale = SCALES[args.scale]
@@ -143,15 +182,40 @@ def _main(args: argparse.Namespace, command: str) -> int:
     timings_path = out / "timings.json"
     timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
     out.mkdir(parents=True, exist_ok=True)
-    (out / "claims.md").write_text(claims_markdown(results, args.level, command, unfinished, timings))
-    write_csv(results, out / "claims.csv")
+    judged = [cell for cell in suite if cell.name not in unfinished]
+    notes = _notes(judged, out, args.scale, config_of)
+    (out / "claims.md").write_text(
+        claims_markdown(results, args.level, command, unfinished, timings, notes=notes)
+    )
+    write_csv(results, out / "claims.csv", origins(out, judged))
     (out / "table1.md").write_text(table1_markdown(groups, args.methods))
     plot_panels(groups, args.methods, out, args.level)
-    width = max((len(v.claim.id) for v in results), default=5)
-    for v in results:
-        print(f"{v.claim.id:<{width}}  {v.method:<5}  {v.verdict}")
+    _print_verdicts(results)
     print(out / "claims.md")
     return 0
+
+
+def _notes(
+    judged: list[Cell], out: pathlib.Path, scale: str, config_of: Callable[[Cell], Config]
+) -> list[str]:
+    """claims.md's notes: which litl and material made the judged cells (said on stderr too when
+    several commits did), and a paper-scale suite's departure from its committed plan."""
+    from litl.claims.plan import departure_from_plan
+
+    found = origins(out, judged)
+    notes = ["\n".join(describe(found))] if found else []
+    made = commits(found)
+    if len(made) > 1:
+        listing = "; ".join(f"{litl}: {', '.join(names)}" for litl, names in made.items())
+        print(
+            f"litl.claims: warning: the cells judged were made by {len(made)} versions of litl ({listing})",
+            file=sys.stderr,
+        )
+    departure = departure_from_plan(config_of(judged[0])) if judged and scale == "paper" else None
+    if departure:
+        print(f"litl.claims: note: {departure}", file=sys.stderr)
+        notes.append(departure)
+    return notes
 
 
 def _plan_and_run(

@@ -6,9 +6,10 @@ had it gone on. Two checks say how much a verdict rests on the run's length:
 - *At a cut*: every claim is judged again, by the same rules, on the runs' records up to an
   earlier iteration (CUT = 60% of the iterations by default): a seed's final task loss is then
   the mean of its last 10 iterations before the cut, and Holm's correction is taken over the
-  cut's family of tests. A verdict (or its verdict after Holm) that differs between the cut
-  and the end is *changed*. The cut is the same run seen at an earlier iteration, not a shorter
-  run: under `method=litl` the step sizes decay over the whole run's length.
+  cut's family of tests. A verdict after Holm (the primary one), or the unadjusted one, that
+  differs between the cut and the end is *changed*. The cut is the same run seen at an earlier
+  iteration, not a shorter run: under `method=litl` the step sizes decay over the whole run's
+  length. A "competitive" claim's margin at the cut is from its reference's progress up to the cut.
 - *Still falling*: per seed, the least-squares slope of the task loss against the iteration over
   the last TAIL = 20% of the iterations (at least 2; skipped iterations left out, and a seed with
   fewer than 2 values there left out); then the mean slope over seeds with its Student-t
@@ -60,7 +61,7 @@ class CutCheck:
     b_slope: Estimate | None
 
     def changed(self, end: Verdict) -> bool:
-        """Whether the verdict at the end, or after Holm, differs from the cut's."""
+        """Whether the verdict after Holm at the end, or the unadjusted one, differs from the cut's."""
         return end.verdict != self.verdict or end.holm_verdict != self.holm_verdict
 
     @property

@@ -140,3 +140,36 @@ def _duration(seconds: float) -> str:
     if seconds < 5400:
         return f"{seconds / 60:.0f} min"
     return f"{seconds / 3600:.1f} h"
+
+
+@dataclasses.dataclass(frozen=True)
+class CommittedPlan:
+    """An experiment's horizon and seeds as committed before its runs (a results page cites it).
+
+    Attributes:
+      episodes, iterations, seeds: the planned run size.
+      page: the committed plan, relative to the repository's root.
+    """
+
+    episodes: int
+    iterations: int
+    seeds: int
+    page: str
+
+
+# The paper-resolution runs' plan, committed before any cell finished (issue #46).
+PAPER_PLAN = CommittedPlan(10, 10, 10, "docs/results/2026-11-27-paper-scale-plan.md")
+
+
+def departure_from_plan(config: Config, plan: CommittedPlan = PAPER_PLAN) -> str | None:
+    """What a results page must say when a run's size differs from the committed `plan`'s
+    (None: it follows the plan). Allowed, never refused: a longer or shorter run is a
+    measurement too, but not the one the plan fixed in advance."""
+    found = (config.loop.episodes, config.loop.iterations, config.seeds)
+    if found == (plan.episodes, plan.iterations, plan.seeds):
+        return None
+    return (
+        f"These runs ({found[0]} episodes x {found[1]} iterations, {found[2]} seeds) depart from the "
+        f"committed plan ({plan.episodes} x {plan.iterations}, {plan.seeds} seeds; {plan.page}): "
+        f"their horizon was not fixed before their results."
+    )

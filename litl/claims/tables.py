@@ -1,19 +1,20 @@
-"""Writing the claims' results: claims.md and claims.csv, Table 1, one figure per paper panel."""
+"""Writing the claims' results: claims.csv, Table 1, one figure per paper panel (claims.md:
+`litl.claims.markdown`)."""
 
 from __future__ import annotations
 
 import csv
-import datetime
 import math
 import os
 import pathlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from litl.claims.cuts import CUT, falling, with_cuts
+from litl.claims.cuts import CUT, with_cuts
+from litl.claims.origins import Origin, material
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
-from litl.claims.verdicts import ALPHA, CLAIMS, Estimate, Verdict, judge, retraining_effects, with_holm
+from litl.claims.verdicts import CLAIMS, Estimate, Verdict, judge, retraining_effects, with_holm
 from litl.config import Config
 from litl.formatting import format_number
 from litl.report import figures
@@ -42,6 +43,14 @@ CSV_FIELDS = (
     "test_p",
     "holm_p",
     "holm_verdict",
+    # mean(a) - mean(b) with its 95% interval, the non-inferiority margin, and the smallest
+    # difference the seeds could have detected (80% power, two-sided 0.05): litl.claims.rules.
+    "difference",
+    "difference_low",
+    "difference_high",
+    "margin",
+    "detectable",
+    "gap_below_detectable",
     # Seeds that ended stuck, counted with their last good loss (litl.stuck).
     "a_stuck",
     "b_stuck",
@@ -60,16 +69,13 @@ CSV_FIELDS = (
     "b_slope_low",
     "b_slope_high",
     "b_still_falling",
+    # Re-judged from a claims.csv (python -m litl.claims --rejudge): the verdicts it held.
+    "previous_verdict",
+    "previous_holm_verdict",
+    # Which litl (commit) and which material made the compared cells ("a | b" where they differ).
+    "commit",
+    "material",
 )
-
-# The paper's appendix (its hyperparameters) was not available: method=paper is litl's reading of
-# the paper's text, so a verdict under it is about that reading (docs/guide/method.md).
-PAPER_CAVEAT = (
-    "method=paper is litl's reading of the paper's text: the paper's appendix with its "
-    "hyperparameters was not available, so a paper-method verdict judges that reading, not the "
-    "paper's own runs (docs/guide/method.md)."
-)
-
 
 # {(method, panel name): {variant name: its runs}}
 Groups = dict[tuple[str, str], dict[str, Group]]
@@ -143,7 +149,11 @@ def _cut_cells(v: Verdict) -> list[float | str | int | bool]:
     ]
 
 
-def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
+def write_csv(
+    results: list[Verdict], path: pathlib.Path, found: Mapping[str, Origin] | None = None
+) -> pathlib.Path:
+    """claims.csv; `found`: {cell name: its origin} (`litl.claims.origins.origins`) for the
+    commit and material columns (empty without)."""
     with open(path, "w", newline="") as file:
         writer = csv.writer(file)
         writer.writerow(CSV_FIELDS)
@@ -165,154 +175,30 @@ def write_csv(results: list[Verdict], path: pathlib.Path) -> pathlib.Path:
                 v.test_p,
                 v.holm_p,
                 v.holm_verdict,
-                "" if v.a is None else v.a.stuck,
-                "" if v.b is None else v.b.stuck,
+                v.difference,
+                v.difference_low,
+                v.difference_high,
+                v.margin,
+                v.detectable,
+                "" if v.gap_below_detectable is None else v.gap_below_detectable,
+                "" if v.a is None or v.a.stuck is None else v.a.stuck,
+                "" if v.b is None or v.b.stuck is None else v.b.stuck,
                 *_cut_cells(v),
+                v.previous_verdict,
+                v.previous_holm_verdict,
+                *_origin_cells(v, found or {}),
             ]
             writer.writerow(["" if isinstance(x, float) and not math.isfinite(x) else x for x in row])
     return path
 
 
-def _interval(estimate: Estimate | None) -> str:
-    if estimate is None or not math.isfinite(estimate.mean):
-        return "—"
-    stuck = f", {estimate.stuck} stuck" if estimate.stuck else ""
-    if estimate.n < 2:
-        return f"{format_number(estimate.mean)} (n={estimate.n}{stuck})"
-    return (
-        f"{format_number(estimate.mean)} [{format_number(estimate.low)}, "
-        f"{format_number(estimate.high)}] (n={estimate.n}{stuck})"
-    )
-
-
-def claims_markdown(
-    results: list[Verdict], level: float, command: str, unfinished: list[str], timings: dict[str, float]
-) -> str:
-    family = sum(math.isfinite(v.test_p) for v in results)
-    lines = [
-        "# The paper's claims, measured",
-        "",
-        f"Written {datetime.date.today().isoformat()} by `{command}`.",
-        "",
-        f"Final task loss = a seed's mean task loss over its last 10 iterations (lower is "
-        f"better); intervals are {level:.0%} Student-t intervals of the mean over seeds; p is "
-        f"the one-sided Welch p-value of the test that makes the claim hold (α = {ALPHA}). "
-        f"For Table 1, a is the change of the objective after retraining plus one step "
-        f"(negative: progress lost) and b the progress per episode.",
-        "",
-        f"The table makes {family} one-sided tests at once, one per row with a p: the test its "
-        f"verdict rests on (p's own for a row that holds; the opposite one-sided test, p-value "
-        f"1 − p, for a contradicted row; the smaller of the two for a row not resolved; a "
-        f"'competitive' row's p is already its one test, of a being worse, and its holding rests "
-        f"on a margin). Holm p is that test's p-value, Holm–Bonferroni-adjusted over the "
-        f"{family}; *after Holm* is the verdict that survives the correction (a verdict whose "
-        f"adjusted p is not below {ALPHA} becomes not resolved).",
-        "",
-        "| claim | method | a | a: mean [CI] | b | b: mean [CI] | p | verdict | Holm p | after Holm |",
-        "|---|---|---|---|---|---|---:|---|---:|---|",
-    ]
-    for v in results:
-        caveat = " (†)" if v.method == "paper" else ""
-        flag = " (‡)" if _flagged(v) else ""
-        lines.append(
-            f"| {v.claim.statement} | {v.method} | {v.claim.a} | {_interval(v.a)} | "
-            f"{v.claim.b or 'progress/episode'} | {_interval(v.b)} | "
-            f"{format_number(v.p, '.3g')} | **{v.verdict}**{caveat}{flag} | "
-            f"{format_number(v.holm_p, '.3g')} | {v.holm_verdict}{caveat} |"
-        )
-    if any(v.method == "paper" for v in results):
-        lines += ["", f"(†) {PAPER_CAVEAT}"]
-    if any(_flagged(v) for v in results):
-        lines += [
-            "",
-            "(‡) The verdict depends on where the runs were cut: it changes between the cut and "
-            "the end, or a compared curve was still falling at the end (see below).",
-        ]
-    if any(e is not None and e.stuck for v in results for e in (v.a, v.b)):
-        lines += [
-            "",
-            "*k stuck*: k of the n seeds ended stuck at their last good parameters (their last "
-            "iterations were skipped); each counts with its last good iterations (its mean over "
-            "the 10 iterations up to its last good one).",
-        ]
-    lines += _cut_section(results, level)
-    lines += ["", "## Rules", ""]
-    for claim_id, rule in dict.fromkeys((v.claim.id, v.rule) for v in results):
-        lines.append(f"- `{claim_id}`: {rule}")
-    lines += ["", "## Sources", ""]
-    lines += [f"- `{c.id}`: {c.source}" for c in CLAIMS if any(v.claim is c for v in results)]
-    if unfinished:
-        lines += [
-            "",
-            "## Not finished",
-            "",
-            "These runs have not finished (run the same command again to resume them); "
-            "claims that need them say `no data`:",
-            "",
-        ]
-        lines += [f"- {name}" for name in unfinished]
-    if timings:
-        total = sum(timings.values())
-        lines += [
-            "",
-            "## Time",
-            "",
-            f"{len(timings)} runs, {total / 3600:.2f} h in all (wall time of each run's "
-            f"last process; see timings.json).",
-        ]
-    return "\n".join(lines) + "\n"
-
-
-def _flagged(v: Verdict) -> bool:
-    """Whether a verdict depends on where its runs were cut (`litl.claims.cuts`)."""
-    return v.cut is not None and (v.cut.changed(v) or bool(v.cut.still_falling))
-
-
-def _slope(estimate: Estimate | None) -> str:
-    if estimate is None:
-        return "—"
-    text = _interval(estimate).replace(" (n=", " per iteration (n=")
-    return f"**{text}, still falling**" if falling(estimate) else text
-
-
-def _cut_section(results: list[Verdict], level: float) -> list[str]:
-    """The cut check's table: each verdict at the end and at the cut, and the slopes of its
-    curves over the last iterations."""
-    checked = [v for v in results if v.cut is not None]
-    if not checked:
-        return []
-    fractions = {f"{v.cut.fraction:.0%}" for v in checked if v.cut is not None}
-    tails = {v.cut.tail for v in checked if v.cut is not None and v.cut.tail}
-    tail = f"its last {tails.pop()} iterations" if len(tails) == 1 else "its last iterations"
-    lines = [
-        "",
-        "## Where the runs were cut",
-        "",
-        f"Each claim judged again by the same rules on the runs' first {' / '.join(sorted(fractions))} "
-        f"of iterations (a seed's final task loss then being its mean over the last 10 before "
-        f"the cut; Holm over the cut's tests), and the slope of each compared task-loss curve "
-        f"over {tail}: per seed the least-squares slope, then the mean over seeds with its "
-        f"{level:.0%} interval. **changed**: the verdict, or the verdict after Holm, differs "
-        f"between the cut and the end. **still falling**: the slope's interval lies below 0, so "
-        f"the curve had not settled. The cut is the same run at an earlier iteration, not a "
-        f"shorter run (under method=litl the step sizes decay over the whole run).",
-        "",
-        "| claim | method | iterations | verdict (after Holm) | at the cut | verdict at the cut (after Holm) "
-        "| a: slope [CI] | b: slope [CI] | depends on the cut |",
-        "|---|---|---:|---|---:|---|---|---|---|",
-    ]
-    for v in checked:
-        cut = v.cut
-        assert cut is not None
-        flags = (["**changed**"] if cut.changed(v) else []) + [
-            f"**{v.claim.a if side == 'a' else v.claim.b} still falling**" for side in cut.still_falling
-        ]
-        lines.append(
-            f"| {v.claim.statement} | {v.method} | {cut.total} | {v.verdict} ({v.holm_verdict}) | "
-            f"{cut.iterations} | {cut.verdict} ({cut.holm_verdict}) | {_slope(cut.a_slope)} | "
-            f"{_slope(cut.b_slope)} | {', '.join(flags) or 'no'} |"
-        )
-    return lines
+def _origin_cells(v: Verdict, found: Mapping[str, Origin]) -> list[str]:
+    """The commit and material of the cells a verdict compares ("a | b" where they differ)."""
+    cells = [found.get(f"{v.method}/{v.claim.panel}/{name}") for name in (v.claim.a, v.claim.b) if name]
+    known = [o for o in cells if o is not None]
+    commits = dict.fromkeys(o.commit or "" for o in known)
+    materials = dict.fromkeys(material(o.max_stretch) for o in known)
+    return [" | ".join(commits), " | ".join(materials)]
 
 
 def table1_markdown(groups: Groups, methods: Sequence[str]) -> str:

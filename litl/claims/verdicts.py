@@ -1,29 +1,32 @@
 """The paper's claims as tests on measured runs, each with a stated rule and a verdict.
 
 Every comparison uses a seed's *final task loss*: the mean of its last 10 optimization
-iterations (`litl.report.summary.FINAL_WINDOW`), lower is better. Rules (ALPHA = 0.05, one-sided,
-the same 5% tail on each side as the paper's 90% intervals):
+iterations (`litl.report.summary.FINAL_WINDOW`), lower is better. The rules
+(`litl.claims.rules`; every test at ALPHA = 0.05 two-sided, i.e. one-sided 0.025 each way):
 
-- "A beats B" holds when a one-sided Welch t-test finds A's mean lower (p < ALPHA), is
-  contradicted when the opposite one-sided test finds it higher (p < ALPHA), and is not resolved
-  otherwise.
-- "A is competitive with B" is contradicted when A is worse with p < ALPHA; it holds when it is
-  not, and A's mean is within MARGIN (10%) of B's |mean| or better; otherwise not resolved.
+- "A beats B": Welch's two-sided t-test; holds when A's mean is lower with p < ALPHA,
+  contradicted when it is higher with p < ALPHA, else not resolved.
+- "A is competitive with B": non-inferiority within a margin delta = MARGIN (10%) x B's progress
+  (the mean over B's seeds of the task loss at their first iteration minus their final task
+  loss). Holds when the 95% Welch interval of mean(a) - mean(b) lies below delta, contradicted
+  when it lies above delta, else not resolved; no margin (B made no progress) resolves nothing.
 - Table 1, "one optimization step cancels retraining's backward progress": per seed, the mean
   of `retrain_change` over retrainings (the change of the task objective from before a
-  retraining to after it and one step; negative = progress lost) against MARGIN times the
+  retraining to after it and one step; negative = progress lost) against -MARGIN times the
   progress an episode makes (mean decrease of the task loss from an episode's first iteration to
-  its last). Holds when the 90% interval of the mean change lies above -MARGIN x progress, is
-  contradicted when it lies below, not resolved when it straddles.
+  its last), by a two-sided one-sample t-test.
 
 A table of claims makes many such tests at once, so each verdict also gets a Holm-adjusted p
-(`with_holm`): Holm-Bonferroni over the family of one-sided tests in the table, one per claim and
-method (the test its verdict rests on), and the verdict that survives the correction.
+(`with_holm`): Holm-Bonferroni over the family of two-sided-scale p-values in the table, one per
+claim and method (the test its verdict rests on); `Verdict.holm_verdict`, the verdict that
+survives the correction, is the table's primary verdict. Each comparison also reports its 95%
+interval and the smallest difference its seeds could have detected with 80% power.
 
 A seed that ended stuck (its last iterations skipped: `litl.stuck`) counts with its last good
 iterations (the window up to its last good one), and each side says how many did
 (`Estimate.stuck`). Whether a verdict depends on where its runs were cut, or rests on curves
-still falling at the end: `litl.claims.cuts`.
+still falling at the end: `litl.claims.cuts`. Re-judging a published claims.csv, whose runs were
+not kept, from its summary statistics: `litl.claims.rejudge`.
 """
 
 from __future__ import annotations
@@ -35,16 +38,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from litl.claims import rules
+from litl.claims.rules import ALPHA, CONTRADICTED, HOLDS, NEEDS_RUNS, NO_DATA, NOT_RESOLVED, Judgement
+from litl.claims.stats import Summary, holm, summarize
 from litl.report.runs import Group
-from litl.report.stats import confidence_band, final_window_values, series_ends
+from litl.report.stats import confidence_band, final_window_values, series, series_ends
 
 if TYPE_CHECKING:
     from litl.claims.cuts import CutCheck
 
-ALPHA = 0.05
-MARGIN = 0.1
 FINAL_WINDOW = 10
-HOLDS, NOT_RESOLVED, CONTRADICTED, NO_DATA = "holds", "not resolved", "contradicted", "no data"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,27 +192,23 @@ CLAIMS = (
 
 def welch_p_lower(a: ArrayLike, b: ArrayLike) -> float:
     """One-sided Welch t-test p-value for mean(a) < mean(b); NaN with fewer than 2 values in
-    either, or no spread in both."""
-    from scipy.stats import ttest_ind
+    either, or no spread in both. (The verdicts use two-sided tests: `litl.claims.rules`.)"""
+    from litl.claims.stats import welch
 
-    x = np.asarray(a, np.float64)
-    y = np.asarray(b, np.float64)
-    x, y = x[np.isfinite(x)], y[np.isfinite(y)]
-    if len(x) < 2 or len(y) < 2 or (np.ptp(x) == 0 and np.ptp(y) == 0):
-        return math.nan
-    return float(ttest_ind(x, y, equal_var=False, alternative="less").pvalue)
+    return welch(summarize(a), summarize(b)).p_below(0.0)
 
 
 @dataclasses.dataclass(frozen=True)
 class Estimate:
     """A mean over seeds with its two-sided interval; `stuck`: how many of the `n` seeds ended
-    stuck and count with their last good loss (`litl.stuck`)."""
+    stuck and count with their last good loss (`litl.stuck`; None: not known, re-judged from a
+    claims.csv without the count)."""
 
     mean: float
     low: float
     high: float
     n: int
-    stuck: int = 0
+    stuck: int | None = 0
 
 
 def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
@@ -234,6 +233,20 @@ def stuck_seeds(group: Group) -> int:
     )
 
 
+def progress(group: Group) -> np.ndarray:
+    """(seeds,) each seed's progress over its run: its task loss at its first iteration (the
+    first not skipped) minus its final task loss (positive: it improved); NaN without either.
+    A "competitive" claim's margin is MARGIN times its reference's mean progress."""
+    _, values = series(group, "task_loss")
+    first = np.full(len(values), math.nan)
+    for row, losses in enumerate(values):
+        finite = np.flatnonzero(np.isfinite(losses))
+        if len(finite):
+            first[row] = losses[finite[0]]
+    result: np.ndarray = first - final_losses(group)
+    return result
+
+
 @dataclasses.dataclass(frozen=True)
 class Verdict:
     """A claim measured under one method.
@@ -243,16 +256,25 @@ class Verdict:
       method: ``"litl"`` or ``"paper"``.
       a, b: the compared quantities (final task losses; for Table 1, a is the remaining change
         after retraining plus one step and b the progress per episode).
-      p: the one-sided Welch p-value of the test that would make the claim hold (NaN: none).
-      verdict: HOLDS, NOT_RESOLVED, CONTRADICTED or NO_DATA.
+      p: the p-value of the claim's own test on the two-sided scale (`litl.claims.rules`; NaN:
+        none): Welch's two-sided p for "beats", twice the one-sided non-inferiority p for
+        "competitive", the one-sample two-sided p for Table 1.
+      verdict: the unadjusted verdict, HOLDS, NOT_RESOLVED, CONTRADICTED, NO_DATA or (re-judged
+        from a claims.csv that lacks what the rule needs) NEEDS_RUNS.
       rule: the rule applied, in words.
-      test_p: the one-sided p-value of the test the verdict rests on: the test that makes the
-        claim hold for HOLDS, the opposite one for CONTRADICTED, the smaller of the two for
-        NOT_RESOLVED; for a "competitive" claim always the test of a being worse (its HOLDS
-        rests on a margin, not a test). NaN: no test.
+      test_p: the two-sided-scale p-value the verdict rests on, the one Holm adjusts: p, except
+        for a "competitive" claim contradicted (twice the one-sided p of a being worse by more
+        than the margin) or not resolved (the smaller of the two). NaN: no test.
       holm_p: `test_p` Holm-adjusted over a table's family of tests (NaN until `with_holm`).
       cut: the same claim judged at an earlier cut of its runs, and whether their curves were
         still falling at the end (`litl.claims.cuts.CutCheck`; None until `with_cuts`).
+      difference: mean(a) - mean(b) (Table 1: the mean change minus its threshold -margin).
+      difference_low, difference_high: its two-sided 95% interval.
+      margin: the margin delta of a "competitive" claim (and Table 1's); NaN for the others.
+      detectable: the smallest |difference| a two-sided test at ALPHA would have detected with
+        80% power, given the observed spreads and seed counts.
+      previous_verdict, previous_holm_verdict: re-judged from a claims.csv, the verdicts it
+        held (empty otherwise).
     """
 
     claim: Claim
@@ -265,59 +287,45 @@ class Verdict:
     test_p: float = math.nan
     holm_p: float = math.nan
     cut: CutCheck | None = None
+    difference: float = math.nan
+    difference_low: float = math.nan
+    difference_high: float = math.nan
+    margin: float = math.nan
+    detectable: float = math.nan
+    previous_verdict: str = ""
+    previous_holm_verdict: str = ""
 
     @property
     def holm_verdict(self) -> str:
-        """The verdict once its test is Holm-adjusted: a HOLDS or CONTRADICTED whose adjusted p
-        is not below ALPHA becomes NOT_RESOLVED (a "competitive" claim that is no longer
-        contradicted holds if its mean is within the margin); the rest are unchanged."""
-        if self.verdict not in (HOLDS, CONTRADICTED):
-            return self.verdict
-        if self.claim.kind == "competitive":
-            if self.verdict == HOLDS or self.holm_p < ALPHA:
-                return self.verdict  # holding rests on the margin; the correction only helps it
-            assert self.a is not None and self.b is not None  # a judged comparison has both
-            return HOLDS if _within_margin(self.a, self.b) else NOT_RESOLVED
-        return self.verdict if self.holm_p < ALPHA else NOT_RESOLVED
+        """The primary verdict: a HOLDS or CONTRADICTED whose Holm-adjusted p is not below ALPHA
+        becomes NOT_RESOLVED; the rest are unchanged."""
+        if self.verdict in (HOLDS, CONTRADICTED) and not self.holm_p < ALPHA:
+            return NOT_RESOLVED
+        return self.verdict
+
+    @property
+    def gap_below_detectable(self) -> bool | None:
+        """Whether |difference| is below `detectable`: a true gap of this size would be found less
+        than 80% of the time with these seeds (None: either is not measured)."""
+        if not (math.isfinite(self.difference) and math.isfinite(self.detectable)):
+            return None
+        return abs(self.difference) < self.detectable
 
 
-def _within_margin(a: Estimate, b: Estimate) -> bool:
-    """A "competitive" claim's margin: a's mean within MARGIN of b's |mean|, or lower."""
-    return a.mean <= b.mean + MARGIN * abs(b.mean)
+def from_judgement(
+    claim: Claim, method: str, a: Estimate | None, b: Estimate | None, judgement: Judgement
+) -> Verdict:
+    """A `Verdict` with a rule's measured fields."""
+    return Verdict(claim, method, a, b, **dataclasses.asdict(judgement))
 
 
-def _test_p(verdict: str, holding: float, opposite: float) -> float:
-    """The p-value a verdict rests on, from the two one-sided tests of a claim."""
-    if verdict == HOLDS:
-        return holding
-    if verdict == CONTRADICTED:
-        return opposite
-    return min(holding, opposite) if math.isfinite(holding) and math.isfinite(opposite) else math.nan
-
-
-# (a, b, p, verdict, rule, test_p): a `Verdict`'s measured fields.
-Result = tuple[Estimate, Estimate, float, str, str, float]
-
-
-def _compare(claim: Claim, a_values: np.ndarray, b_values: np.ndarray, level: float) -> Result:
-    a, b = estimate(a_values, level), estimate(b_values, level)
-    better = welch_p_lower(a_values, b_values)
-    worse = welch_p_lower(b_values, a_values)
-    if a.n < 2 or b.n < 2:
-        return a, b, better, NO_DATA, "needs at least 2 seeds with a final task loss in each", math.nan
-    if claim.kind == "beats":
-        verdict = HOLDS if better < ALPHA else CONTRADICTED if worse < ALPHA else NOT_RESOLVED
-        rule = (
-            f"holds if {claim.a} is lower with one-sided Welch p < {ALPHA}; contradicted if "
-            f"it is higher with p < {ALPHA}"
-        )
-        return a, b, better, verdict, rule, _test_p(verdict, better, worse)
-    verdict = CONTRADICTED if worse < ALPHA else HOLDS if _within_margin(a, b) else NOT_RESOLVED
-    rule = (
-        f"contradicted if {claim.a} is higher with one-sided Welch p < {ALPHA}; else holds "
-        f"if its mean is within {MARGIN:.0%} of {claim.b}'s |mean| or lower"
-    )
-    return a, b, worse, verdict, rule, worse
+def compare(claim: Claim, a: Summary, b: Summary, reference_progress: float = math.nan) -> Judgement:
+    """A comparison claim judged from each side's (mean, sd, n), by its kind's rule;
+    `reference_progress` is b's mean progress (`progress`), a "competitive" claim's margin."""
+    assert claim.b is not None  # a comparison names both sides
+    if claim.kind == "competitive":
+        return rules.competitive(a, b, reference_progress, claim.a, claim.b)
+    return rules.beats(a, b, claim.a, claim.b)
 
 
 def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
@@ -348,80 +356,42 @@ def retraining_effects(group: Group) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
-def _retraining(claim: Claim, group: Group, level: float) -> Result:
-    change_values, progress_values = retraining_effects(group)
-    change, progress = estimate(change_values, level), estimate(progress_values, level)
-    rule = (
-        f"holds if the {level:.0%} interval of the mean change lies above -{MARGIN:g} x the "
-        f"mean progress per episode; contradicted if it lies below; else not resolved"
-    )
-    if change.n < 2 or not math.isfinite(progress.mean):
-        return change, progress, math.nan, NO_DATA, "needs retrainings in at least 2 seeds", math.nan
-    threshold = -MARGIN * max(progress.mean, 0.0)
-    verdict = HOLDS if change.low > threshold else CONTRADICTED if change.high < threshold else NOT_RESOLVED
-    # The p-value of "the mean change is above the threshold" (one-sample, one-sided).
-    from scipy.stats import ttest_1samp
-
-    finite = change_values[np.isfinite(change_values)]
-    p, opposite = (
-        (
-            float(ttest_1samp(finite, threshold, alternative="greater").pvalue),
-            float(ttest_1samp(finite, threshold, alternative="less").pvalue),
-        )
-        if np.ptp(finite) > 0
-        else (math.nan, math.nan)
-    )
-    return change, progress, p, verdict, rule, _test_p(verdict, p, opposite)
-
-
 def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.9) -> Verdict:
-    """The verdict on `claim` from `groups` ({variant name: its runs}) of one method."""
+    """The verdict on `claim` from `groups` ({variant name: its runs}) of one method; `level`:
+    the displayed intervals' (the tests are at ALPHA whatever it is)."""
     missing = [name for name in (claim.a, claim.b) if name is not None and name not in groups]
     if missing:
         return Verdict(
             claim, method, None, None, math.nan, NO_DATA, f"no finished runs of {', '.join(missing)}"
         )
     if claim.kind == "retraining":
-        result = _retraining(claim, groups[claim.a], level)
-    else:
-        assert claim.b is not None  # a comparison names both sides
-        a_group, b_group = groups[claim.a], groups[claim.b]
-        a, b, p, verdict, rule, test_p = _compare(claim, final_losses(a_group), final_losses(b_group), level)
-        # Seeds that ended stuck count with their last good loss; the table says how many.
-        a = dataclasses.replace(a, stuck=stuck_seeds(a_group))
-        b = dataclasses.replace(b, stuck=stuck_seeds(b_group))
-        result = (a, b, p, verdict, rule, test_p)
-    return Verdict(claim, method, *result)
-
-
-def holm(p_values: ArrayLike) -> np.ndarray:
-    """Holm-Bonferroni adjusted p-values (step-down; family-wise error rate at any alpha).
-
-    Args:
-      p_values: (m,) p-values of the family; NaN entries (no test) are left out of it and stay
-        NaN.
-
-    Returns:
-      (m,) adjusted p-values in the input's order: the k-th smallest of the n finite ones is
-      multiplied by n - k + 1, made non-decreasing along that order and capped at 1.
-    """
-    p = np.asarray(p_values, np.float64)
-    if p.ndim != 1:
-        raise ValueError(f"holm expects a 1-D sequence of p-values, got shape {p.shape}")
-    finite = np.isfinite(p)
-    if np.any((p[finite] < 0) | (p[finite] > 1)):
-        raise ValueError(f"p-values must lie in [0, 1], got {p[finite & ((p < 0) | (p > 1))]}")
-    adjusted = np.full(p.shape, math.nan)
-    index = np.flatnonzero(finite)
-    order = index[np.argsort(p[index], kind="stable")]
-    n = len(order)
-    scaled = p[order] * (n - np.arange(n))
-    adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
-    return adjusted
+        changes, per_episode = retraining_effects(groups[claim.a])
+        judgement = rules.retraining(summarize(changes), summarize(per_episode))
+        a, b = estimate(changes, level), estimate(per_episode, level)
+        return from_judgement(claim, method, a, b, judgement)
+    assert claim.b is not None  # a comparison names both sides
+    a_group, b_group = groups[claim.a], groups[claim.b]
+    a_values, b_values = final_losses(a_group), final_losses(b_group)
+    reference = summarize(progress(b_group)).mean if claim.kind == "competitive" else math.nan
+    judgement = compare(claim, summarize(a_values), summarize(b_values), reference)
+    # Seeds that ended stuck count with their last good loss; the table says how many.
+    a = dataclasses.replace(estimate(a_values, level), stuck=stuck_seeds(a_group))
+    b = dataclasses.replace(estimate(b_values, level), stuck=stuck_seeds(b_group))
+    return from_judgement(claim, method, a, b, judgement)
 
 
 def with_holm(results: list[Verdict]) -> list[Verdict]:
     """The verdicts with `holm_p` set: Holm over the family of their tests (one per verdict
-    with a `test_p`), so `holm_verdict` says which survive the correction."""
-    adjusted = holm([v.test_p for v in results])
-    return [dataclasses.replace(v, holm_p=float(p)) for v, p in zip(results, adjusted, strict=True)]
+    with a `test_p`), so `holm_verdict` says which survive the correction.
+
+    A row that NEEDS_RUNS (re-judged from a claims.csv without what its test needs) was a test
+    of the family whose p is unknown: it counts as p = 1, the worst case for the others'
+    correction (a larger family member never lowers another's adjusted p), and has no Holm p.
+    """
+    unknown = [v.verdict == NEEDS_RUNS for v in results]
+    family = [1.0 if missing else v.test_p for v, missing in zip(results, unknown, strict=True)]
+    adjusted = holm(family)
+    return [
+        dataclasses.replace(v, holm_p=math.nan if missing else float(p))
+        for v, p, missing in zip(results, adjusted, unknown, strict=True)
+    ]

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from litl.app import run_experiment
-from litl.claims.tables import claims_markdown
+from litl.claims.markdown import claims_markdown
 from litl.claims.verdicts import CLAIMS, final_losses, judge
 from litl.report import write_report
 from litl.report.runs import Group, load_run

@@ -1,0 +1,163 @@
+"""The rules that turn a claim's summary statistics into a verdict (one function per kind of
+claim), shared by the verdict on measured runs (`litl.claims.verdicts.judge`) and the verdict
+re-judged from a published claims.csv (`litl.claims.rejudge`).
+
+Every test is at ALPHA = 0.05 two-sided (equivalently one-sided at 0.025 in each direction), so
+that each member of a table's Holm family is a two-sided p-value and Holm's correction holds the
+family-wise error at 0.05:
+
+- `beats`, "A beats B": Welch's two-sided t-test of mean(a) - mean(b); holds when A's mean is
+  lower and p < ALPHA, contradicted when it is higher and p < ALPHA, else not resolved.
+- `competitive`, "A is competitive with B": non-inferiority with a margin fixed before the runs,
+  delta = MARGIN x B's progress (its seeds' mean decrease of the task loss from their first
+  iteration to their final task loss). Holds when the upper end of the 95% Welch interval of
+  mean(a) - mean(b) lies below delta (a one-sided test of H0: a - b >= delta at 0.025);
+  contradicted when its lower end lies above delta (A worse by more than the margin); else not
+  resolved. Without progress (<= 0) there is no margin and no test.
+- `retraining`, Table 1: a one-sample two-sided t-test of the mean change against -MARGIN x the
+  progress per episode; holds when the mean lies above with p < ALPHA (its 95% interval lies
+  above), contradicted when below with p < ALPHA.
+
+Each judgement also gives the 95% interval of the difference, and the smallest difference the
+seeds could have detected with POWER = 80% (`litl.claims.stats.Difference.detectable`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from litl.claims.stats import Difference, Summary, one_sample, welch
+
+ALPHA = 0.05
+MARGIN = 0.1
+POWER = 0.8
+HOLDS, NOT_RESOLVED, CONTRADICTED, NO_DATA = "holds", "not resolved", "contradicted", "no data"
+# A row re-judged from a claims.csv that lacks what its rule needs (`litl.claims.rejudge`).
+NEEDS_RUNS = "needs the runs"
+
+BEATS_RULE = (
+    "holds if {a} is lower than {b} with two-sided Welch p < {alpha} (one-sided 0.025 each way); "
+    "contradicted if it is higher with p < {alpha}; else not resolved"
+)
+COMPETITIVE_RULE = (
+    "non-inferiority: margin δ = {margin:.0%} of {b}'s progress (mean over seeds of its first "
+    "iteration's task loss minus its final one); holds if the upper end of the 95% Welch interval "
+    "of {a} − {b} lies below δ (one-sided 0.025), contradicted if its lower end lies above δ; "
+    "else not resolved"
+)
+RETRAINING_RULE = (
+    "holds if the mean change lies above −{margin:g} × the mean progress per episode with "
+    "two-sided one-sample t p < {alpha} (its 95% interval above), contradicted if below with "
+    "p < {alpha}; else not resolved"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Judgement:
+    """A rule applied to summary statistics (the measured fields of a `Verdict`).
+
+    Attributes:
+      p: the p-value of the claim's own test, on the two-sided scale (NaN: no test).
+      verdict: HOLDS, NOT_RESOLVED, CONTRADICTED or NO_DATA.
+      rule: the rule applied, in words.
+      test_p: the two-sided-scale p-value the verdict rests on (what Holm adjusts).
+      difference: mean(a) - mean(b); for Table 1 the mean change minus its threshold.
+      difference_low, difference_high: its two-sided 1 - ALPHA (95%) interval.
+      margin: a "competitive" claim's delta; Table 1's delta (threshold -delta); else NaN.
+      detectable: the smallest |difference| a two-sided test at ALPHA finds with POWER.
+    """
+
+    p: float
+    verdict: str
+    rule: str
+    test_p: float
+    difference: float = math.nan
+    difference_low: float = math.nan
+    difference_high: float = math.nan
+    margin: float = math.nan
+    detectable: float = math.nan
+
+
+def _measured(difference: Difference) -> dict[str, float]:
+    """The interval and detectable difference of a `Difference`, as `Judgement` fields."""
+    low, high = difference.interval(ALPHA)
+    return {
+        "difference": difference.estimate,
+        "difference_low": low,
+        "difference_high": high,
+        "detectable": difference.detectable(ALPHA, POWER),
+    }
+
+
+def _smaller(x: float, y: float) -> float:
+    """min(x, y), NaN if either is (Python's min depends on the order with NaN)."""
+    return min(x, y) if math.isfinite(x) and math.isfinite(y) else math.nan
+
+
+def _doubled(p: float) -> float:
+    """A one-sided p-value put on the two-sided scale (2p, capped at 1)."""
+    return min(1.0, 2 * p) if math.isfinite(p) else math.nan
+
+
+def _by_sign(difference: Difference, positive: str, negative: str) -> str:
+    """The verdict of a two-sided test: `positive`/`negative` by the estimate's sign when p <
+    ALPHA, else NOT_RESOLVED."""
+    if not difference.p < ALPHA:
+        return NOT_RESOLVED
+    return positive if difference.estimate > 0 else negative
+
+
+def too_few(a: Summary, b: Summary) -> Judgement | None:
+    """NO_DATA unless both sides have at least 2 seeds with a final task loss."""
+    if a.n < 2 or b.n < 2:
+        return Judgement(math.nan, NO_DATA, "needs at least 2 seeds with a final task loss in each", math.nan)
+    return None
+
+
+def beats(a: Summary, b: Summary, a_name: str, b_name: str) -> Judgement:
+    """A "beats" claim, `a_name`'s final task loss lower than `b_name`'s: Welch's two-sided test."""
+    if (missing := too_few(a, b)) is not None:
+        return missing
+    difference = welch(a, b)
+    verdict = _by_sign(difference, CONTRADICTED, HOLDS)
+    rule = BEATS_RULE.format(a=a_name, b=b_name, alpha=ALPHA)
+    return Judgement(difference.p, verdict, rule, difference.p, **_measured(difference))
+
+
+def competitive(a: Summary, b: Summary, progress: float, a_name: str, b_name: str) -> Judgement:
+    """A "competitive" claim, `a_name` not worse than `b_name`: non-inferiority within MARGIN x
+    `progress` (`b_name`'s mean progress over its seeds; NaN: not measured)."""
+    if (missing := too_few(a, b)) is not None:
+        return missing
+    difference = welch(a, b)
+    rule = COMPETITIVE_RULE.format(margin=MARGIN, a=a_name, b=b_name)
+    if not math.isfinite(progress):
+        return Judgement(
+            math.nan, NO_DATA, f"needs {b_name}'s task loss at its first iteration (its progress)", math.nan
+        )
+    margin = MARGIN * progress
+    if not margin > 0:
+        why = f"not resolved: {b_name} made no progress ({progress:.3g}), so there is no margin to test"
+        return Judgement(math.nan, NOT_RESOLVED, why, math.nan, **_measured(difference), margin=margin)
+    holding = _doubled(difference.p_below(margin))
+    opposite = _doubled(difference.p_above(margin))
+    if holding < ALPHA:
+        verdict, test_p = HOLDS, holding
+    elif opposite < ALPHA:
+        verdict, test_p = CONTRADICTED, opposite
+    else:
+        verdict, test_p = NOT_RESOLVED, _smaller(holding, opposite)
+    return Judgement(holding, verdict, rule, test_p, **_measured(difference), margin=margin)
+
+
+def retraining(change: Summary, progress: Summary) -> Judgement:
+    """Table 1: is the mean change after retraining plus one step above -MARGIN x the mean
+    progress per episode (a negative progress counts as none)?"""
+    if change.n < 2 or not math.isfinite(progress.mean):
+        return Judgement(math.nan, NO_DATA, "needs retrainings in at least 2 seeds", math.nan)
+    margin = MARGIN * max(progress.mean, 0.0)
+    difference = one_sample(change, -margin)
+    verdict = _by_sign(difference, HOLDS, CONTRADICTED)
+    rule = RETRAINING_RULE.format(margin=MARGIN, alpha=ALPHA)
+    return Judgement(difference.p, verdict, rule, difference.p, **_measured(difference), margin=margin)
