@@ -132,6 +132,31 @@ def check_observer(config: Config) -> None:
     observers.check_kind(config)
 
 
+def _as_made(robot: Robot, config: Config, run_dir: pathlib.Path) -> Robot:
+    """The robot with the strain limit an older `method=paper` run in `run_dir` was made with.
+
+    `method=paper` simulated litl's strain limit (yield past a stretch of 3) from 2026-11-26 until
+    2026-11-27, when it became the paper's elastic material. A paper-method run from that day (its
+    run.json records a limit and no provenance) resumes as it was made, with a word; every other
+    difference is the resume check's to refuse (`litl.loop.run`).
+    """
+    path = run_dir / "run.json"
+    if not path.exists():
+        return robot
+    import json
+
+    saved = json.loads(path.read_text())
+    limit = saved.get("max_stretch")
+    made_before = "provenance" not in saved and saved.get("config", {}).get("method") == "paper"
+    if not made_before or limit is None or robot.config.max_stretch is not None or config.method != "paper":
+        return robot
+    say(
+        f"litl: {run_dir} is a method=paper run made before 2026-11-27 with the strain limit "
+        f"(max_stretch {limit}); it resumes with it (method=paper now simulates the elastic material)"
+    )
+    return robot.with_material(dataclasses.replace(robot.material, max_stretch=limit))
+
+
 def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None = None):
     """Run Algorithm 1 for `config` in `run_dir` (resuming it if it holds a run), then draw.
 
@@ -139,9 +164,9 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     process and its settings checked (`python -m litl` records Hydra's `.hydra/*.yaml` so that
     a second process on the same directory changes nothing). Returns the `litl.loop.RunResult`.
     """
-    robot = build_robot(config)
-    check_observer(config)
     run_dir = pathlib.Path(run_dir)
+    robot = _as_made(build_robot(config), config, run_dir)
+    check_observer(config)
     say(
         f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "

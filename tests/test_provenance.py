@@ -212,3 +212,31 @@ def test_a_horizon_other_than_the_committed_plans_is_allowed_and_said():
     note = departure_from_plan(longer)
     assert note is not None and "20 episodes x 10 iterations" in note and PAPER_PLAN.page in note
     assert (ROOT / PAPER_PLAN.page).exists()  # the plan it names is committed
+
+
+def test_a_paper_method_run_made_with_the_strain_limit_resumes_as_it_was_made(tmp_path, capsys):
+    """method=paper yielded at 3 from 2026-11-26 to 2026-11-27: such a run resumes with its limit."""
+    from litl.app import compose, run_experiment
+
+    overrides = ["method=paper", "+scale=smoke", "observer=kmeans", "seeds=1", "loop.episodes=2",
+                 "loop.iterations=1", "sim.steps=40", "output.pictures=false", "output.animation=false",
+                 "output.progress=false"]  # fmt: skip
+    made = compose([*overrides, "robot.material.max_stretch=3", "loop.episodes=1"])
+    run_experiment(made, tmp_path)
+    saved = json.loads((tmp_path / "run.json").read_text())
+    del saved["provenance"]  # as a run.json written before litl recorded provenance
+    saved["config"]["loop"]["episodes"] = 2
+    (tmp_path / "run.json").write_text(json.dumps(saved))
+    capsys.readouterr()
+    result = run_experiment(compose(overrides), tmp_path)
+    assert "made before 2026-11-27 with the strain limit (max_stretch 3.0); it resumes with it" in (
+        capsys.readouterr().err
+    )
+    assert len(result.metrics) == 2 and json.loads((tmp_path / "run.json").read_text())["max_stretch"] == 3.0
+    # A run with provenance is today's: the same difference is refused, nothing changed.
+    other = tmp_path / "today"
+    run_experiment(made, other)
+    before = (other / "run.json").read_text()
+    with pytest.raises(RunDirectoryError, match="robot.material.max_stretch=3.0"):
+        run_experiment(compose(overrides), other)
+    assert (other / "run.json").read_text() == before
