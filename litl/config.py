@@ -357,11 +357,14 @@ class PCAConfig(_Checked):
     Attributes:
       components: r, principal components (the controller's features).
       window: side (domain units) of the grid window it sees, as `observer.vae.window`.
+      field: what it sees of the grid and the replay buffer stores (`GridField`), as
+        `observer.vae.field` (runs from before this key read the VAE's).
     """
 
     KEY = "observer.pca"
     components: int = 8
     window: float | None = 0.5
+    field: GridField = GridField.mass_weighted
 
     def check(self) -> None:
         self._positive_ints("components")
@@ -827,6 +830,8 @@ def recorded_settings(saved: dict[str, Any]) -> dict[str, Any]:
         flat = {**flatten(moved), "loop.schedule": schedule}
     flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
     flat.setdefault("method", Method.litl.value)
+    # The PCA observer read the VAE's field until it had its own (2026-11-27).
+    flat.setdefault("observer.pca.field", flat.get("observer.vae.field", GridField.mass_weighted.value))
     return flat
 
 
@@ -855,6 +860,8 @@ def upgrade(tree: dict[str, Any]) -> dict[str, Any]:
     flat = flatten(tree)
     flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
     flat.setdefault("method", Method.litl.value)
+    # The PCA observer read the VAE's field until it had its own (2026-11-27).
+    flat.setdefault("observer.pca.field", flat.get("observer.vae.field", GridField.mass_weighted.value))
     # observer.pca is read only by the PCA observer, which came with it.
     for key, value in flatten({"observer": {"pca": json_safe(dataclasses.asdict(PCAConfig()))}}).items():
         flat.setdefault(key, value)

@@ -21,6 +21,7 @@ PAPER = {
     "observer.vae.window": None,
     "observer.vae.activation": "relu",
     "observer.vae.field": "velocity",
+    "observer.pca.field": "velocity",
     "controller.mlp.period": None,
     "controller.mlp.feature_scale": 1.0,
     "controller.mlp.feature_gradient": "full",
@@ -36,6 +37,7 @@ LITL = {
     "observer.vae.window": 0.5,
     "observer.vae.activation": "elu",
     "observer.vae.field": "mass_weighted",
+    "observer.pca.field": "mass_weighted",
     "controller.mlp.period": 2 * math.pi / 30,
     "controller.mlp.feature_scale": 0.2,
     "controller.mlp.feature_gradient": "stop",
@@ -193,3 +195,12 @@ def test_every_error_a_user_can_meet_has_one_base():
         assert issubclass(error, UserError), error
     with pytest.raises(UserError, match="loop.alpha=2"):
         Config().replace(loop={"alpha": 2})
+
+
+def test_an_older_run_json_gives_pca_the_field_it_read_then():
+    """Until 2026-11-27 the PCA observer read the VAE's field (observer.vae.field)."""
+    for method, field in (("paper", "velocity"), ("litl", "mass_weighted")):
+        old = json.loads(json.dumps(Config.for_method(method).run_settings()))
+        del old["observer"]["pca"]["field"]
+        assert upgrade(old) == json.loads(json.dumps(Config.for_method(method).run_settings()))
+        assert upgrade(old)["observer"]["pca"]["field"] == field

@@ -77,8 +77,9 @@ class Simulation:
 
     @functools.cached_property
     def field(self):
-        """field(grid): what the policy reads of the grid and the snapshots record."""
-        if self.config.observer.vae.field == GridField.mass_weighted:
+        """field(grid): what the policy reads of the grid and the snapshots record (the
+        observer's `field`)."""
+        if self.observer.field == GridField.mass_weighted:
             scene = self.scene
             return mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
         return grid_velocity

@@ -54,6 +54,7 @@ def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> O
         learner=learner,
         settings="vae",
         pictures=pictures,
+        field=settings.field,
     )
 
 

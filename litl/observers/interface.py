@@ -23,7 +23,7 @@ from typing import Any
 
 import jax
 
-from litl.config import SettingsError
+from litl.config import GridField, SettingsError
 from litl.models.window import Window
 
 
@@ -89,6 +89,9 @@ class Observer:
       learner: how it learns from snapshots; None for an observer fixed at init.
       settings: the section of `litl.config.ObserverConfig` it reads (``"vae"`` for
         ``observer.vae.*``), or None.
+      field: the grid field its features read and its snapshots record (`litl.config.GridField`:
+        plain node velocities, or mass-weighted ones, `litl.sim.fields`); None: it reads no grid
+        field (the loop hands it plain velocities, and no learner needs snapshots of them).
       pictures: ``pictures(robot, algorithm, state, run_dir, stride) -> [paths]``: the pictures
         of its representation for one seed's final `LoopState` (`litl.pictures` calls it); None:
         no pictures.
@@ -100,6 +103,7 @@ class Observer:
     learner: Learner | None = None
     settings: str | None = None
     pictures: Callable[..., list] | None = None
+    field: GridField | None = None
 
     @property
     def learned(self) -> bool:

@@ -92,6 +92,7 @@ def pca(robot, config, sim_config, dtype) -> Observer:
         learner=learner,
         settings="pca",
         pictures=pictures,
+        field=settings.field,
     )
 
 

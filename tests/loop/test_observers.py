@@ -45,6 +45,24 @@ def test_builtin_observers_through_the_interface():
         assert observer.features(params, state, field).shape == (n_features,), name
 
 
+def test_each_observer_says_which_grid_field_it_reads_and_the_loop_follows_it():
+    from litl.config import GridField
+    from litl.loop import make_algorithm
+    from litl.sim.fields import grid_velocity
+
+    robot = tiny_robot()
+    # The VAE's section says mass-weighted; only the VAE reads it. PCA reads its own key, and
+    # k-means and no observer read no grid field at all.
+    changes = {"vae": {"field": "mass_weighted"}, "pca": {"field": "velocity"}}
+    expected = {"vae": GridField.mass_weighted, "ae": GridField.mass_weighted, "pca": GridField.velocity}
+    for name in ("vae", "ae", "pca", "kmeans", "none"):
+        config = tiny_config(observer={"kind": name, **changes})
+        observer = observers.make(name, robot, config, robot.config, jnp.float32)
+        assert observer.field == expected.get(name), name
+        plain = make_algorithm(robot, config).field is grid_velocity
+        assert plain == (expected.get(name) != GridField.mass_weighted), name
+
+
 def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
     with pytest.raises(ValueError, match="already registered"):
         observers.register("vae", lambda *args: None)
