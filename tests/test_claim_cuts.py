@@ -7,10 +7,11 @@ import pathlib
 import numpy as np
 import pytest
 
-from litl.claims.cuts import CUT, cut_group, falling, kept, slope, tail_slopes, with_cuts
+from litl.claims.cuts import CUT, cut_group, kept, slope, tail_slopes, with_cuts
+from litl.claims.estimates import Estimate, falling
 from litl.claims.markdown import claims_markdown
 from litl.claims.tables import verdicts, write_csv
-from litl.claims.verdicts import CLAIMS, HOLDS, NOT_RESOLVED, Estimate, judge, with_holm
+from litl.claims.verdicts import CLAIMS, HOLDS, NOT_RESOLVED, judge, with_holm
 from litl.report.runs import Group, Run
 from tests.test_claims import HIGH, LOW, group
 

@@ -219,6 +219,14 @@ def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
     text = (out / "claims.md").read_text()
     assert f"Made by {litl.provenance.describe(run['provenance'])}." in text
     assert "Material: elastic (no strain limit) (paper)." in text
+    # Each cell's failures, time and origin.
+    cell_rows = [line for line in text.splitlines() if line.startswith("| paper/fig4b/")]
+    assert [row.split(" | ")[0] for row in cell_rows] == [
+        "| paper/fig4b/vae",
+        "| paper/fig4b/kmeans",
+        "| paper/fig4b/sinusoid",
+    ]
+    assert all(row.split(" | ")[1] == "2" and "elastic" in row for row in cell_rows)
     metrics = (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text()
     capsys.readouterr()
     # A second call finds every run finished: it runs nothing and writes the same verdicts.

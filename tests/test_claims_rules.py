@@ -338,3 +338,26 @@ def test_rejudge_refuses_to_overwrite_its_input(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--rejudge", str(tmp_path / "claims.csv"), "--out", str(tmp_path)])
     assert "would overwrite the claims.csv being re-judged" in capsys.readouterr().err
+
+
+def test_each_cell_counts_its_stuck_seeds_skipped_and_stepped_back_iterations():
+    import pathlib
+
+    from litl.claims.failures import cell_record, cells_markdown
+    from litl.claims.origins import Origin
+    from litl.report.runs import Group, Run
+
+    def record(seed, step, loss, skipped=None, stepped_back=False):
+        return {"seed": seed, "episode": 0, "iteration": step, "step": step, "task_loss": loss,
+                "skipped": skipped, "stepped_back": stepped_back}  # fmt: skip
+
+    records = [record(0, step, -0.1 * step) for step in range(4)]
+    records += [record(1, 0, -0.1), record(1, 1, -0.2, stepped_back=True)]
+    records += [record(1, 2, float("nan"), skipped="escaped"), record(1, 3, float("nan"), skipped="escaped")]
+    group = Group("biped", "vae", (Run(pathlib.Path("."), {"config": {}}, tuple(records)),))
+    cell = cell_record("litl/fig4b/vae", group)
+    assert (cell.seeds, cell.stuck, cell.skipped, cell.stepped_back, cell.iterations) == (2, 1, 2, 1, 8)
+    lines = cells_markdown([cell], {"litl/fig4b/vae": 90.0}, {"litl/fig4b/vae": Origin("ab" * 20, None, 3.0)})
+    assert lines[-1] == (
+        "| litl/fig4b/vae | 2 | 1 | 2 | 1 | 8 | 1.5 min | abababababab | yields past a stretch of 3 |"
+    )

@@ -9,6 +9,7 @@ import shlex
 import sys
 from collections.abc import Callable
 
+from litl.claims.failures import cell_records, cells_markdown
 from litl.claims.markdown import claims_markdown
 from litl.claims.origins import check_resumable, commits, describe, origins
 from litl.claims.suite import PANEL_NAMES, SCALES, Cell, ClaimsError, Scale, cells, run_suite
@@ -184,10 +185,11 @@ def _main(args: argparse.Namespace, command: str) -> int:
     out.mkdir(parents=True, exist_ok=True)
     judged = [cell for cell in suite if cell.name not in unfinished]
     notes = _notes(judged, out, args.scale, config_of)
-    (out / "claims.md").write_text(
-        claims_markdown(results, args.level, command, unfinished, timings, notes=notes)
-    )
-    write_csv(results, out / "claims.csv", origins(out, judged))
+    found = origins(out, judged)
+    text = claims_markdown(results, args.level, command, unfinished, timings, notes=notes)
+    cells_section = cells_markdown(cell_records(groups), timings, found)
+    (out / "claims.md").write_text(text + "\n".join(cells_section) + ("\n" if cells_section else ""))
+    write_csv(results, out / "claims.csv", found)
     (out / "table1.md").write_text(table1_markdown(groups, args.methods))
     plot_panels(groups, args.methods, out, args.level)
     _print_verdicts(results)

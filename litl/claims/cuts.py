@@ -26,7 +26,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from litl.claims.verdicts import Estimate, Verdict, estimate, judge, with_holm
+from litl.claims.estimates import CutCheck, Estimate, estimate
+from litl.claims.verdicts import Verdict, judge, with_holm
 from litl.report.runs import Group
 from litl.report.stats import series
 
@@ -35,44 +36,6 @@ TAIL = 0.2
 
 # {(method, panel name): {variant name: its runs}}, as `litl.claims.tables.Groups`.
 Groups = Mapping[tuple[str, str], Mapping[str, Group]]
-
-
-@dataclasses.dataclass(frozen=True)
-class CutCheck:
-    """A verdict's claim judged at an earlier cut, and its curves' slopes at the end.
-
-    Attributes:
-      fraction: the cut, as a fraction of the iterations (CUT).
-      iterations: the iterations kept at the cut (the first ones).
-      total: the runs' iterations (the longest of the compared groups).
-      verdict, holm_verdict: the verdict at the cut, and after Holm over the cut's family.
-      tail: the iterations over which the slopes are measured (the last ones).
-      a_slope, b_slope: each compared curve's task-loss slope per iteration over the `tail`,
-        mean over seeds with its interval (None: no such group; for Table 1's claim, b).
-    """
-
-    fraction: float
-    iterations: int
-    total: int
-    verdict: str
-    holm_verdict: str
-    tail: int
-    a_slope: Estimate | None
-    b_slope: Estimate | None
-
-    def changed(self, end: Verdict) -> bool:
-        """Whether the verdict after Holm at the end, or the unadjusted one, differs from the cut's."""
-        return end.verdict != self.verdict or end.holm_verdict != self.holm_verdict
-
-    @property
-    def still_falling(self) -> list[str]:
-        """Which compared curves (``"a"``, ``"b"``) were still falling at the end."""
-        return [side for side, slope in (("a", self.a_slope), ("b", self.b_slope)) if falling(slope)]
-
-
-def falling(slope: Estimate | None) -> bool:
-    """Whether a slope's interval lies below 0 (needs 2 seeds with a slope)."""
-    return slope is not None and slope.n >= 2 and math.isfinite(slope.high) and slope.high < 0
 
 
 def iterations(group: Group) -> int:

@@ -7,9 +7,9 @@ import datetime
 import math
 from collections.abc import Sequence
 
-from litl.claims.cuts import falling
+from litl.claims.estimates import Estimate, falling
 from litl.claims.rules import ALPHA, NEEDS_RUNS, POWER
-from litl.claims.verdicts import CLAIMS, Estimate, Verdict
+from litl.claims.verdicts import CLAIMS, Verdict
 from litl.formatting import format_number
 
 # The paper's appendix (its hyperparameters) was not available: method=paper is litl's reading of

@@ -12,9 +12,10 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from litl.claims.cuts import CUT, with_cuts
+from litl.claims.estimates import Estimate
 from litl.claims.origins import Origin, material
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
-from litl.claims.verdicts import CLAIMS, Estimate, Verdict, judge, retraining_effects, with_holm
+from litl.claims.verdicts import CLAIMS, Verdict, judge, retraining_effects, with_holm
 from litl.config import Config
 from litl.formatting import format_number
 from litl.report import figures

@@ -33,19 +33,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from litl.claims import rules
+from litl.claims.estimates import CutCheck, Estimate, estimate
 from litl.claims.rules import ALPHA, CONTRADICTED, HOLDS, NEEDS_RUNS, NO_DATA, NOT_RESOLVED, Judgement
 from litl.claims.stats import Summary, holm, summarize
 from litl.report.runs import Group
-from litl.report.stats import confidence_band, final_window_values, series, series_ends
-
-if TYPE_CHECKING:
-    from litl.claims.cuts import CutCheck
+from litl.report.stats import final_window_values, series, series_ends
 
 FINAL_WINDOW = 10
 
@@ -198,25 +195,6 @@ def welch_p_lower(a: ArrayLike, b: ArrayLike) -> float:
     return welch(summarize(a), summarize(b)).p_below(0.0)
 
 
-@dataclasses.dataclass(frozen=True)
-class Estimate:
-    """A mean over seeds with its two-sided interval; `stuck`: how many of the `n` seeds ended
-    stuck and count with their last good loss (`litl.stuck`; None: not known, re-judged from a
-    claims.csv without the count)."""
-
-    mean: float
-    low: float
-    high: float
-    n: int
-    stuck: int | None = 0
-
-
-def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
-    array = np.asarray(values, np.float64)
-    mean, low, high = confidence_band(array, level)
-    return Estimate(float(mean), float(low), float(high), int(np.isfinite(array).sum()))
-
-
 def final_losses(group: Group) -> np.ndarray:
     """(seeds,) each seed's final task loss (mean of its last FINAL_WINDOW iterations; for a seed
     that ended stuck, of those up to its last good one: `litl.stuck`)."""
@@ -267,7 +245,8 @@ class Verdict:
         than the margin) or not resolved (the smaller of the two). NaN: no test.
       holm_p: `test_p` Holm-adjusted over a table's family of tests (NaN until `with_holm`).
       cut: the same claim judged at an earlier cut of its runs, and whether their curves were
-        still falling at the end (`litl.claims.cuts.CutCheck`; None until `with_cuts`).
+        still falling at the end (`litl.claims.estimates.CutCheck`; None until
+        `litl.claims.cuts.with_cuts`).
       difference: mean(a) - mean(b) (Table 1: the mean change minus its threshold -margin).
       difference_low, difference_high: its two-sided 95% interval.
       margin: the margin delta of a "competitive" claim (and Table 1's); NaN for the others.

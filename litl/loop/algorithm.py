@@ -41,12 +41,12 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from litl.config import Config, Schedule, SettingsError
+from litl.config import Config, SettingsError
 from litl.loop import observers
 from litl.loop.observers import Observer
 from litl.loop.optimization import Optimization
-from litl.loop.replay_buffer import ReplayBuffer
 from litl.loop.retraining import Retraining
+from litl.loop.schedule import LearningSchedule
 from litl.loop.simulation import Simulation, make_controller
 from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and helpers, where they were)
     MAX_STEP_BACKS,
@@ -61,7 +61,9 @@ from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and 
 )
 from litl.models.controller import MLPController
 from litl.models.open_loop import SinusoidController
+from litl.models.replay_buffer import ReplayBuffer
 from litl.robots.robot import Robot
+from litl.sim.memory import CheckpointPlan
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,10 +85,10 @@ class Algorithm:
     steps: int
     observer: Observer
     # How learning alternates with optimization (`loop.schedule`, the paper's ablations):
-    # "alternating" (Algorithm 1: a learning phase after every episode), "one_shot" (learned once,
-    # at the start), "simultaneous" (one observer step per optimization iteration, no phases) or
-    # "fixed" (an observer that does not learn).
-    schedule: str
+    # alternating (Algorithm 1: a learning phase after every episode), one_shot (learned once,
+    # at the start), simultaneous (one observer step per optimization iteration, no phases) or
+    # fixed (an observer that does not learn); see `LearningSchedule`.
+    schedule: LearningSchedule
     # For pictures and replays of one seed: policy((controller, observer), state, grid_field),
     # the controller module, and field(grid), the grid field the policy reads
     # (`litl.sim.fields`; pass it to `make_rollout`).
@@ -96,9 +98,11 @@ class Algorithm:
     # simulate(controller, design, observer, initial=None) -> (task loss, (components,
     # trajectory)): one differentiable rollout, from the robot's initial state or `initial`.
     simulate: Callable
-    # checkpoint_plan() -> `litl.sim.memory.CheckpointPlan` of the rollout (None until it has
-    # been traced): whether its backward pass uses segments to fit the memory budget.
-    checkpoint_plan: Callable
+    # checkpoint_plan() -> `litl.sim.memory.CheckpointPlan` of one seed's rollout under
+    # `optimize`: whether its backward pass uses segments to fit the memory budget. From shapes
+    # alone (nothing is compiled or run); raises `litl.sim.memory.MemoryBudgetError` where the
+    # rollout would.
+    checkpoint_plan: Callable[[], CheckpointPlan]
 
     @property
     def n_features(self) -> int:
@@ -112,7 +116,7 @@ class Algorithm:
     @property
     def retrains(self) -> bool:
         """Whether a learning phase follows every episode (the run shell calls `learn`)."""
-        return self.schedule == "alternating"
+        return self.schedule is LearningSchedule.alternating
 
 
 def empty_statistics(observer: Observer, dtype, dim: int) -> dict:
@@ -137,10 +141,11 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
     observer = observers.make(config.observer.kind, robot, config, scene.config, dtype)
     if on_epoch is not None and observer.learner is not None:
         observer = dataclasses.replace(observer, learner=observer.learner.reporting_epochs(on_epoch))
-    schedule = "fixed" if observer.learner is None else config.loop.schedule.value
+    schedule = LearningSchedule.of(config.loop.schedule, learns=observer.learner is not None)
     stride = min(config.loop.snapshot_stride, steps)
     _check_learning_data(config.loop, observer, schedule, steps, stride)
-    if schedule == Schedule.simultaneous and observer.learner is not None and observer.learner.step is None:
+    simultaneous = schedule is LearningSchedule.simultaneous
+    if simultaneous and observer.learner is not None and observer.learner.step is None:
         raise SettingsError(
             f"observer {config.observer.kind!r} learns in phases only (it has no single SGD step): "
             f"loop.schedule=simultaneous needs one; use loop.schedule=alternating or one_shot",
@@ -180,14 +185,14 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         controller=simulation.controller,
         field=simulation.field,
         simulate=simulation.simulate,
-        checkpoint_plan=lambda: simulation.rollout.plan,
+        checkpoint_plan=functools.cache(functools.partial(_checkpoint_plan, simulation, optimization)),
     )
 
 
-def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, stride: int):
+def _check_learning_data(loop, observer: Observer, schedule: LearningSchedule, steps: int, stride: int):
     """A learning phase splits the buffer into a training and a validation half: with fewer than
     two snapshots it can learn nothing, and would say so only as epochs_used 0."""
-    if observer.learner is None or schedule == Schedule.simultaneous:
+    if schedule in (LearningSchedule.fixed, LearningSchedule.simultaneous):
         return
     capacity = loop.buffer_capacity
     held = capacity if loop.replay_buffer else min(capacity, steps // stride)
@@ -200,6 +205,13 @@ def _check_learning_data(loop, observer: Observer, schedule: str, steps: int, st
             f"loop.replay_buffer={loop.replay_buffer}); raise loop.buffer_capacity or lower "
             f"loop.snapshot_stride"
         )
+
+
+def _checkpoint_plan(simulation: Simulation, optimization: Optimization) -> CheckpointPlan:
+    """The memory plan of `simulation.simulate`'s rollout, from the shapes of a seed's state."""
+    state = jax.eval_shape(functools.partial(_init, simulation, optimization, 0))
+    design = jax.eval_shape(simulation.robot.design_space.to_design, state.design)
+    return simulation.rollout.plan((state.controller, state.observer), design, simulation.scene.state)
 
 
 def _init(simulation: Simulation, optimization: Optimization, seed: int) -> LoopState:

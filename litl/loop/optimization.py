@@ -18,10 +18,11 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from litl.config import Config, Schedule
-from litl.loop.replay_buffer import add, replace_with
+from litl.config import Config
+from litl.loop.schedule import LearningSchedule
 from litl.loop.simulation import Simulation
 from litl.loop.state import MAX_STEP_BACKS, Anchor, Best, LoopState, keep_if, skip_reason, split_key
+from litl.models.replay_buffer import add, replace_with
 
 
 def adam(learning_rate: float, clip: float | None) -> optax.GradientTransformation:
@@ -36,13 +37,13 @@ class Optimization:
     Attributes:
       simulation: the rollouts to differentiate.
       config: the run's settings (`controller.learning_rate`, `loop.*`).
-      schedule: `loop.schedule` as the algorithm resolved it ("fixed" for an observer that does
-        not learn).
+      schedule: `loop.schedule` as the algorithm resolved it (`LearningSchedule.fixed` for an
+        observer that does not learn).
     """
 
     simulation: Simulation
     config: Config
-    schedule: str
+    schedule: LearningSchedule
 
     @functools.cached_property
     def controller_adam(self) -> optax.GradientTransformation:
@@ -87,7 +88,7 @@ class Optimization:
             buffer=keep(state.buffer, snapshots, self.simulation.snapshot_velocities(trajectory))
         )
         recon = jnp.full((), jnp.nan, self.simulation.dtype)
-        if self.schedule == Schedule.simultaneous:
+        if self.schedule is LearningSchedule.simultaneous:
             learner = self.simulation.observer.learner
             # make_algorithm allows the simultaneous schedule only for an observer with a step
             assert learner is not None and learner.step is not None

@@ -16,9 +16,9 @@ import jax.numpy as jnp
 import optax
 
 from litl.config import Config
-from litl.loop.replay_buffer import add
 from litl.loop.simulation import Simulation
 from litl.loop.state import LoopState, keep_if, skip_reason, split_key
+from litl.models.replay_buffer import add
 
 
 def soft_update(target, online, alpha):

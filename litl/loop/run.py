@@ -51,7 +51,7 @@ from litl.loop.algorithm import SKIP_REASONS, Best, LoopState, make_algorithm, s
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
 from litl.loop.progress import Progress, say
-from litl.loop.replay_buffer import newest
+from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
 from litl.robots.robot import Robot
 from litl.stuck import seed_ends
@@ -343,7 +343,7 @@ class _Shell:
     ):
         self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
         self.reconstruct: Callable[..., Any] | None = None
-        self.plan_said = False
+        self.plan_checked = False
         batched = lambda f: jax.jit(jax.vmap(f))
         self.optimize = batched(algorithm.optimize)
         self.learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=learning_seeds_at_once))
@@ -398,11 +398,14 @@ class _Shell:
         return shard_seeds(state), counters
 
     def _say_checkpoint_plan(self):
-        """Once, when the rollout's backward pass needed segments to fit the memory budget."""
-        plan = self.algorithm.checkpoint_plan()
-        if self.plan_said or plan is None or plan.budget_bytes is None or not plan.checkpoint_every:
+        """Once per run: say so when the rollout's backward pass uses segments to fit the memory
+        budget."""
+        if self.plan_checked:
             return
-        self.plan_said = True
+        self.plan_checked = True
+        plan = self.algorithm.checkpoint_plan()
+        if plan.budget_bytes is None or not plan.checkpoint_every:
+            return
         say(
             f"litl: the backward pass of a {plan.steps}-step rollout would keep "
             f"{plan.plain_bytes / 2**30:.3g} GiB per seed, over the budget of "

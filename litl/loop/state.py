@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from litl.loop.replay_buffer import ReplayBuffer
+from litl.models.replay_buffer import ReplayBuffer
 
 # Codes of the `skipped` metric: why an iteration kept nothing of its own (0: it did not skip).
 SKIP_REASONS = {

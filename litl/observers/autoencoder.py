@@ -18,6 +18,7 @@ import numpy as np
 import optax
 
 from litl.models import vae
+from litl.models.replay_buffer import newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import LearningStats, make_learning_phase
 from litl.observers.interface import Learner, Observer
@@ -112,7 +113,6 @@ def pictures(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> lis
     state (nothing while its buffer is empty)."""
     import matplotlib.pyplot as plt
 
-    from litl.loop.replay_buffer import newest
     from litl.viz.latent import draw_latent_sweeps, draw_snapshots
     from litl.viz.saliency import animate_saliency
 

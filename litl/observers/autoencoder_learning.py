@@ -40,7 +40,7 @@ import optax
 from flax import struct
 
 from litl.config import LearningConfig
-from litl.loop.replay_buffer import ReplayBuffer
+from litl.models.replay_buffer import ReplayBuffer
 from litl.models.vae import (
     AutoencoderParams,
     ConvAutoencoder,

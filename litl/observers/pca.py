@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from litl.loop.replay_buffer import ReplayBuffer
+from litl.models.replay_buffer import ReplayBuffer, newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import random_split
 from litl.observers.interface import Learner, Observer
@@ -165,8 +165,6 @@ def pictures(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> lis
     """pca.png: the first components' speed (top row) and the newest snapshots' speed with
     their reconstructions (lower rows); 3D fields are shown in their middle slice."""
     import matplotlib.pyplot as plt
-
-    from litl.loop.replay_buffer import newest
 
     window = algorithm.observer.learner.window
     params = state.observer

@@ -7,10 +7,15 @@ returns one actuation value per actuator:
     policy(policy_params, state, grid_velocity) -> (m,) actuation
 
 `state.step` gives the step index for open-loop (time-dependent) policies.
+
+`make_rollout` returns a `Rollout`: call it to run, and ask its `plan` what the backward pass will
+keep (`litl.sim.memory.CheckpointPlan`), a pure function of the arguments' shapes that needs no
+trace of the rollout.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -92,13 +97,35 @@ def _counter(length):
     return jnp.arange(length, dtype=jnp.int32)
 
 
-def _reads(function, argument) -> bool:
-    """Whether `function(argument)`'s result depends on `argument` (from its jaxpr: an unused
-    input is never read)."""
-    closed = jax.make_jaxpr(function)(argument)
+def _reads_field(policy: Policy, policy_params, state, field) -> bool:
+    """Whether `policy`'s result depends on its grid field (from its jaxpr, traced on shapes
+    alone: an unused input is never read)."""
+    closed = jax.make_jaxpr(policy)(policy_params, state, field)
     used = {id(v) for eqn in closed.jaxpr.eqns for v in eqn.invars}
     used |= {id(v) for v in closed.jaxpr.outvars}
-    return any(id(v) in used for v in closed.jaxpr.invars)
+    field_inputs = closed.jaxpr.invars[len(closed.jaxpr.invars) - len(jax.tree.leaves(field)) :]
+    return any(id(v) in used for v in field_inputs)
+
+
+@dataclasses.dataclass(frozen=True)
+class Rollout:
+    """What `make_rollout` returns: call it to run; `plan` tells what its backward pass keeps.
+
+    Attributes:
+      run: ``run(policy_params, design, initial_state) -> (final_state, Trajectory)``, pure and
+        jittable (calling the `Rollout` calls it).
+      plan: ``plan(policy_params, design, initial_state) -> CheckpointPlan``, the segment length
+        and bytes `run` keeps for its backward pass given the same arguments (one rollout's: under
+        `jax.vmap`, pass one seed's). It reads only their shapes and dtypes (arrays or
+        `jax.ShapeDtypeStruct`s), computes nothing and compiles nothing, so it can be asked before
+        the rollout is ever traced. Raises `litl.sim.memory.MemoryBudgetError` as `run` would.
+    """
+
+    run: Callable[[Any, Design, SimState], tuple[SimState, Trajectory]]
+    plan: Callable[[Any, Design, SimState], CheckpointPlan]
+
+    def __call__(self, policy_params, design: Design, initial_state: SimState) -> tuple[SimState, Trajectory]:
+        return self.run(policy_params, design, initial_state)
 
 
 def make_rollout(
@@ -113,7 +140,7 @@ def make_rollout(
     stress=None,
     field: GridField = velocity_field,
     memory_budget: int | None = None,
-):
+) -> Rollout:
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
     Pure and jittable; differentiate it with `jax.grad` through a loss of its outputs. With `remat`
@@ -140,6 +167,9 @@ def make_rollout(
       memory_budget: bytes one rollout's backward pass may keep (under `jax.vmap`, divide the
         budget by the batch); None: `litl.sim.memory.MEMORY_FRACTION` of the device's memory.
         Only read with `checkpoint_every="auto"`.
+
+    Returns:
+      A `Rollout`: the function above, and `plan`, the memory plan it follows.
     """
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -172,7 +202,7 @@ def make_rollout(
     warn_if_slow_gpu_scatter()
     step_fn = make_component_step(config, body, stress)
 
-    def plan(carry, step_outputs, reads_field: bool) -> CheckpointPlan:
+    def plan_for(carry, step_outputs, reads_field: bool) -> CheckpointPlan:
         """The segment length for this rollout's carry and per-step outputs (shapes only); the
         grid field is kept per step only when the policy reads it (else XLA drops it)."""
         nbytes = lambda tree: sum(
@@ -185,7 +215,16 @@ def make_rollout(
         budget = default_budget_bytes() if memory_budget is None else int(memory_budget)
         return plan_checkpointing(steps, snapshot_stride or 1, carry_bytes, per_step, budget)
 
-    def rollout(policy_params, design: Design, initial_state: SimState):
+    def initial_carry(design: Design, initial_state: SimState):
+        return (
+            Components.unpack(initial_state),
+            field(rasterize(config, body, initial_state, design)),
+            Health.ok(),
+        )
+
+    def step_of(policy_params, design: Design):
+        """One step of the scan: (carry, step index) -> (carry, (observation, actuation))."""
+
         def one_step(carry, counter):
             components, grid_velocity, health = carry
             # Packing is free where a policy or observation does not read a field: XLA drops it.
@@ -195,18 +234,19 @@ def make_rollout(
             health = health.record(config, components, index)
             return (components, field(grid), health), (observe(components.pack()), actuation)
 
-        carry = (
-            Components.unpack(initial_state),
-            field(rasterize(config, body, initial_state, design)),
-            Health.ok(),
-        )
-        # A function attribute (the type checker knows functions without them).
-        rollout.plan = plan(  # type: ignore[attr-defined]
-            carry,
-            jax.eval_shape(one_step, carry, jnp.zeros((), jnp.int32))[1],
-            _reads(lambda g: policy(policy_params, initial_state, g), carry[1]),
-        )
-        every = rollout.plan.checkpoint_every  # type: ignore[attr-defined]
+        return one_step
+
+    def plan(policy_params, design: Design, initial_state: SimState) -> CheckpointPlan:
+        carry = jax.eval_shape(initial_carry, design, initial_state)
+        outputs = jax.eval_shape(
+            lambda p, d, c: step_of(p, d)(c, jnp.zeros((), jnp.int32)), policy_params, design, carry
+        )[1]
+        return plan_for(carry, outputs, _reads_field(policy, policy_params, initial_state, carry[1]))
+
+    def rollout(policy_params, design: Design, initial_state: SimState):
+        one_step = step_of(policy_params, design)
+        carry = initial_carry(design, initial_state)
+        every = plan(policy_params, design, initial_state).checkpoint_every
         # Steps run in units (a snapshot is taken after each unit), units in segments (each
         # rematerialized as a whole when there are segments).
         unit = snapshot_stride or min(every or steps, steps)
@@ -255,5 +295,4 @@ def make_rollout(
             health=health,
         )
 
-    rollout.plan = None  # type: ignore[attr-defined]  # set when the rollout is first traced
-    return rollout
+    return Rollout(run=rollout, plan=plan)

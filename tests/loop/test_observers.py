@@ -119,7 +119,7 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
 def mean_speed_observer(robot, config, sim_config, dtype):
     """A toy learning observer, defined here and registered from the test: its one feature is the
     window's mean speed over a scale it learns (each phase: the buffer's mean speed)."""
-    from litl.loop.replay_buffer import valid_mask
+    from litl.models.replay_buffer import valid_mask
     from litl.models.window import Window
     from litl.observers import Learner, Observer
 

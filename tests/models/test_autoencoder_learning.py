@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 
 from litl.config import LearningConfig
-from litl.loop import replay_buffer
-from litl.loop.replay_buffer import ReplayBuffer
 from litl.loop.retraining import soft_update
-from litl.models import vae
+from litl.models import replay_buffer, vae
+from litl.models.replay_buffer import ReplayBuffer
 from litl.observers import autoencoder_learning as learning
 
 GRID = (32, 32)

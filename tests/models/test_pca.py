@@ -8,7 +8,7 @@ import pytest
 
 from litl.config import PCAConfig, SettingsError
 from litl.loop import make_algorithm
-from litl.loop.replay_buffer import ReplayBuffer, add
+from litl.models.replay_buffer import ReplayBuffer, add
 from litl.observers import make
 from litl.observers.pca import PCAParams, fit, project, reconstruct
 from tests.loop.tiny import tiny_config, tiny_robot

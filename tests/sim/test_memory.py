@@ -45,7 +45,7 @@ def test_a_tight_budget_picks_segments_and_the_gradient_is_unchanged(dim, x64):
         rollout = make_rollout(config, body, sine_policy, steps, snapshot_stride=4, **memory)
         loss = lambda p, e: jnp.mean(rollout(p, design.replace(youngs_modulus=e), state)[0].x)
         value, grads = jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(params, design.youngs_modulus)
-        return rollout.plan, value, grads
+        return rollout.plan(params, design, state), value, grads
 
     plain_plan, plain_value, plain_grads = gradient(checkpoint_every=None)
     assert plain_plan.checkpoint_every is None
@@ -73,9 +73,48 @@ def test_the_grid_field_counts_only_when_the_policy_reads_it():
     reading = lambda p, s, g: sine_policy(p, s, g) + 0.0 * jnp.sum(g)
 
     def planned(policy):
-        rollout = make_rollout(config, body, policy, 8, checkpoint_every=None)
-        jax.eval_shape(rollout, params, design, state)
-        return rollout.plan.carry_bytes
+        return (
+            make_rollout(config, body, policy, 8, checkpoint_every=None)
+            .plan(params, design, state)
+            .carry_bytes
+        )
 
     field_bytes = 16 * 16 * 2 * 4  # the 2D grid velocity, float32
     assert planned(reading) - planned(sine_policy) == field_bytes
+
+
+def shapes(tree):
+    return jax.tree.map(lambda leaf: jax.ShapeDtypeStruct(leaf.shape, leaf.dtype), tree)
+
+
+@pytest.mark.parametrize(
+    ("dim", "reads_field", "memory", "expected"),
+    [
+        # (checkpoint_every, carry bytes, per-step bytes, budget): the plans the rollout followed
+        # when it was planned while traced; the field counts in the carry only when it is read.
+        (2, False, {"checkpoint_every": None}, (None, 3084, 16, None)),
+        (2, True, {"snapshot_stride": 4, "memory_budget": 200_000}, (8, 5132, 528, 200_000)),
+        (2, False, {"snapshot_stride": 4, "checkpoint_every": 8}, (8, 3084, 528, None)),
+        (2, True, {"memory_budget": 10**9}, (None, 5132, 16, 10**9)),
+        (3, True, {"snapshot_stride": 5, "memory_budget": 700_000}, (5, 41484, 4167, 700_000)),
+    ],
+)
+def test_the_plan_comes_from_shapes_alone_before_any_trace(dim, reads_field, memory, expected):
+    config, body, design, state = block(dim, n_grid=16 if dim == 2 else 12)
+    params = sine_params(body.n_actuators)
+    policy = (lambda p, s, g: sine_policy(p, s, g) + 0.0 * jnp.sum(g)) if reads_field else sine_policy
+    steps = 64 if dim == 2 else 30
+    rollout = make_rollout(config, body, policy, steps, **memory)
+    plan = rollout.plan(shapes(params), shapes(design), shapes(state))
+    assert (plan.checkpoint_every, plan.carry_bytes, plan.per_step_bytes, plan.budget_bytes) == expected
+    assert plan.steps == steps and rollout.plan(params, design, state) == plan
+
+
+def test_a_budget_too_small_is_refused_by_the_plan_as_by_the_rollout():
+    config, body, design, state = block(2, n_grid=16)
+    params = sine_params(body.n_actuators)
+    rollout = make_rollout(config, body, sine_policy, 64, memory_budget=1000)
+    with pytest.raises(MemoryBudgetError):
+        rollout.plan(shapes(params), shapes(design), shapes(state))
+    with pytest.raises(MemoryBudgetError):
+        jax.eval_shape(rollout, params, design, state)

@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.loop import replay_buffer
-from litl.loop.replay_buffer import ReplayBuffer
+from litl.models import replay_buffer
+from litl.models.replay_buffer import ReplayBuffer
 
 GRID = (4, 3)
 
@@ -107,3 +107,9 @@ def test_velocities_are_kept_beside_their_snapshots():
     with pytest.raises(ValueError, match="velocities must have shape"):
         replay_buffer.add(alone, snapshots(0, 2), given)
     assert not np.any(replay_buffer.clear(buffer).velocities)
+
+
+def test_the_loops_old_import_path_gives_the_same_buffer():
+    from litl.loop import replay_buffer as old_path
+
+    assert old_path.ReplayBuffer is ReplayBuffer and old_path.add is replay_buffer.add
