@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+import typing
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, NoReturn, Self, TypeVar
@@ -135,9 +136,10 @@ class _Checked:
         __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
 
     def __post_init__(self) -> None:
+        types = _field_types(type(self))
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            kind = _enum_of(f.type)
+            kind = _enum_of(types[f.name])
             if kind is not None and value is not None and not isinstance(value, kind):
                 try:
                     value = kind(value)
@@ -209,23 +211,24 @@ def _moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
     return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
 
 
+def _field_types(kind: type) -> dict[str, Any]:
+    """`kind`'s field annotations resolved to types (this module's are strings)."""
+    return typing.get_type_hints(kind)
+
+
+def _classes(annotation: object) -> tuple[type, ...]:
+    """The classes an annotation admits: ``X`` and ``X | None`` give (X,)."""
+    return tuple(a for a in typing.get_args(annotation) or (annotation,) if isinstance(a, type))
+
+
 def _enum_of(annotation: object) -> type[enum.Enum] | None:
-    text = str(annotation)
-    for kind in (
-        ControllerKind,
-        Schedule,
-        TaskKind,
-        Resolution,
-        Activation,
-        GridField,
-        FeatureGradient,
-        LoggerKind,
-        Method,
-        DType,
-    ):
-        if kind.__name__ in text:
-            return kind
-    return None
+    """The enum a field's annotation names (its closed set of values), or None."""
+    return next((a for a in _classes(annotation) if issubclass(a, enum.Enum)), None)
+
+
+def _dataclass_of(annotation: object) -> type[_Checked] | None:
+    """The config dataclass a field's annotation names (a nested section), or None."""
+    return next((a for a in _classes(annotation) if issubclass(a, _Checked)), None)
 
 
 @dataclass(frozen=True)
@@ -890,7 +893,7 @@ def from_dict(kind: type[_C], values: dict[Any, Any]) -> _C:
         raise SettingsError(f"unknown setting(s) {[prefix + u for u in unknown]}")
     built = {}
     for name, value in values.items():
-        nested = _dataclass_of(fields[name].type)
+        nested = _dataclass_of(_field_types(kind)[name])
         built[name] = from_dict(nested, value) if nested and isinstance(value, dict) else value
     return kind(**built)
 
@@ -904,30 +907,6 @@ def flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             flat[prefix + key] = value
     return flat
-
-
-def _dataclass_of(annotation: object) -> type[_Checked] | None:
-    for kind in (
-        RobotConfig,
-        MaterialConfig,
-        TaskConfig,
-        ObserverConfig,
-        AutoencoderConfig,
-        KMeansConfig,
-        PCAConfig,
-        ControllerConfig,
-        MLPConfig,
-        SinusoidConfig,
-        RolloutConfig,
-        LoopConfig,
-        SafeguardsConfig,
-        LearningConfig,
-        ExperimentConfig,
-        OutputConfig,
-    ):
-        if str(annotation) == kind.__name__:
-            return kind
-    return None
 
 
 def register_with_hydra() -> None:
