@@ -243,7 +243,8 @@ class MaterialConfig(_Checked):
       bounds: [E_min, E_max], the range co-design keeps each region's E in.
       poisson_ratio, density, actuator_strength: fixed material parameters.
       max_stretch: the principal stretch past which the material yields (the strain limit,
-        `litl.sim.SimConfig.max_stretch`); inf: purely elastic, as ChainQueen.
+        `litl.sim.SimConfig.max_stretch`); inf: purely elastic, as ChainQueen. Checked where the
+        robot's material is built (`litl.robots.Material`, the one check of a limit).
     """
 
     KEY = "robot.material"
@@ -266,12 +267,6 @@ class MaterialConfig(_Checked):
             self._invalid("poisson_ratio", "must lie in (-1, 0.5)")
         if self.actuator_strength is not None and not _number(self.actuator_strength):
             self._invalid("actuator_strength", "must be a finite number")
-        if self.max_stretch is not None and not (
-            isinstance(self.max_stretch, (int, float))
-            and not isinstance(self.max_stretch, bool)
-            and self.max_stretch > 1
-        ):
-            self._invalid("max_stretch", "must be a number > 1 (e.g. 3.0), or inf for no limit")
 
     def changes(self) -> dict[str, Any]:
         """The `litl.robots.Material` fields this config sets."""

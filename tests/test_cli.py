@@ -177,7 +177,7 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("method=papr", "Could not find 'method/papr'"),
         ("robot.material.bounds=[40,80]", "robot.material.bounds=\\(40.0, 80.0\\): need 0 < E_min"),
         ("experiment=fig9", "Could not find 'experiment/fig9'"),
-        ("robot.material.max_stretch=1", "robot.material.max_stretch=1.0: must be a number > 1"),
+        ("robot.material.max_stretch=1", "robot.material.max_stretch=1.0: max_stretch must be a number > 1"),
     ],
 )
 def test_bad_settings_fail_early_with_a_clear_message(override, message):

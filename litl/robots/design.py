@@ -23,6 +23,7 @@ import numpy as np
 from jax.typing import ArrayLike, DTypeLike
 
 from litl.sim import Design, SimConfigError
+from litl.sim.config import is_stretch_bound
 
 # Target CFL number of the stiffest allowed material: below the accepted 0.75
 # (`litl.sim.safety.MAX_CFL`; at 0.81 trained gaits blew up). dt / dx is rounded down to two
@@ -77,9 +78,8 @@ class Material:
                 f"density must be > 0 and actuator_strength finite, got "
                 f"{self.density}, {self.actuator_strength}"
             )
-        if isinstance(self.max_stretch, bool) or not (
-            isinstance(self.max_stretch, (int, float)) and self.max_stretch > 1
-        ):
+        never = isinstance(self.max_stretch, float) and self.max_stretch == math.inf
+        if not (never or is_stretch_bound(self.max_stretch)):
             raise SimConfigError(
                 f"max_stretch must be a number > 1 (the stretch at which the material yields, e.g. "
                 f"{MAX_STRETCH}) or inf (never), got {self.max_stretch!r}"

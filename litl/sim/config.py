@@ -42,6 +42,16 @@ class SimConfigError(UserError, ValueError):
 ConfigError = SimConfigError
 
 
+def is_stretch_bound(value: object) -> bool:
+    """Whether `value` can bound a particle's principal stretch (the strain limit): a finite number
+    above 1, not a bool. The one check of a limit's value; "no limit" is spelled None inside the
+    simulator (`SimConfig.max_stretch`) and inf only at the edges (`litl.robots.Material`, the
+    command line's `robot.material.max_stretch=inf`)."""
+    return (
+        isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 1
+    )
+
+
 @dataclasses.dataclass(frozen=True)
 class Wall:
     """How one face of the domain treats grid velocity pointing into it.
@@ -188,12 +198,7 @@ class SimConfig:
             raise SimConfigError(
                 f"unknown constitutive_model {self.constitutive_model!r}; choose one of {CONSTITUTIVE_MODELS}"
             )
-        if self.max_stretch is not None and not (
-            isinstance(self.max_stretch, (int, float))
-            and not isinstance(self.max_stretch, bool)
-            and math.isfinite(self.max_stretch)
-            and self.max_stretch > 1
-        ):
+        if self.max_stretch is not None and not is_stretch_bound(self.max_stretch):
             raise SimConfigError(
                 f"max_stretch must be a finite number > 1 (the largest principal stretch a particle "
                 f"keeps, e.g. 3.0) or None (no limit), got {self.max_stretch!r}"
