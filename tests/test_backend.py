@@ -10,7 +10,7 @@ import warnings
 import pytest
 
 import litl
-from litl import backend
+from litl import backend, provenance
 from litl.backend import DeterminismError, configure, requested_mode
 from litl.loop.run import RunDirectoryError, run
 from tests.loop.tiny import tiny_config, tiny_robot
@@ -116,15 +116,26 @@ def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so
     assert recorded["platform"] == backend.record()["platform"]
     assert FLAG in recorded["xla_flags"]
 
+    # run.json names the litl that made the run (litl.provenance); as if another commit had
+    # started it, the resume below also says so and records it.
+    saved = json.loads((tmp_path / "run.json").read_text())
+    assert saved["provenance"] == json.loads(json.dumps(provenance.record()))
+    saved["provenance"]["commit"] = "0" * 40
+    (tmp_path / "run.json").write_text(json.dumps(saved))
+
     capfd.readouterr()
     monkeypatch.setattr(backend, "_configured", "off")  # as a process started with LITL_DETERMINISM=off
     run(tiny_robot(), config, tmp_path, progress=False)
     err = capfd.readouterr().err
     assert "was started with determinism on and is resumed with determinism off" in err
     assert "LITL_DETERMINISM=on to resume" in err
+    assert "was started by litl 0.1.0, commit 000000000000" in err
+    assert "its iterations come from two versions of litl" in err
     settings = json.loads((tmp_path / "run.json").read_text())
     assert settings["backend"]["determinism"] == "on"  # what it started with stays
+    assert settings["provenance"]["commit"] == "0" * 40
     assert [r["determinism"] for r in settings["resumed_on"]] == ["off"]
+    assert [r["provenance"] for r in settings["resumed_on"]] == [json.loads(json.dumps(provenance.record()))]
     # A resume refused for other settings changes nothing, run.json included.
     before = (tmp_path / "run.json").read_text()
     with pytest.raises(RunDirectoryError, match="Nothing was changed"):
