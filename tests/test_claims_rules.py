@@ -351,7 +351,8 @@ def test_each_cell_counts_its_stuck_seeds_skipped_and_stepped_back_iterations():
         return {"seed": seed, "episode": 0, "iteration": step, "step": step, "task_loss": loss,
                 "skipped": skipped, "stepped_back": stepped_back}  # fmt: skip
 
-    records = [record(0, step, -0.1 * step) for step in range(4)]
+    # As report.runs reads them: a null float (`skipped` of a kept iteration) becomes NaN.
+    records = [record(0, step, -0.1 * step, skipped=float("nan")) for step in range(4)]
     records += [record(1, 0, -0.1), record(1, 1, -0.2, stepped_back=True)]
     records += [record(1, 2, float("nan"), skipped="escaped"), record(1, 3, float("nan"), skipped="escaped")]
     group = Group("biped", "vae", (Run(pathlib.Path("."), {"config": {}}, tuple(records)),))

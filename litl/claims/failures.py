@@ -18,6 +18,7 @@ import numpy as np
 from litl.claims.origins import Origin, material
 from litl.claims.verdicts import final_losses, stuck_seeds
 from litl.report.runs import Group
+from litl.stuck import skipped
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,7 +49,7 @@ def cell_record(name: str, group: Group) -> CellRecord:
         name=name,
         seeds=int(np.isfinite(final_losses(group)).sum()),
         stuck=stuck_seeds(group),
-        skipped=sum(bool(r.get("skipped")) for r in records),
+        skipped=sum(skipped(r) for r in records),
         stepped_back=sum(bool(r.get("stepped_back")) for r in records),
         iterations=len(records),
     )
