@@ -21,13 +21,12 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import OmegaConf
 
-from litl.app import run_experiment
-from litl.config import from_hydra, register_with_hydra, translate_overrides
+from litl.app import import_named_modules, run_experiment
+from litl.config import from_hydra, register_with_hydra
 from litl.errors import UserError, exit_on_user_error
 from litl.loop.progress import say, set_label
 from litl.loop.run import RunDirectoryError
-
-register_with_hydra()
+from litl.old_settings import translate_overrides
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
@@ -75,10 +74,15 @@ def _remove_if_unused(run_dir: pathlib.Path) -> None:
 
 
 def main() -> None:
-    # Keys that moved keep working, with a word on their new name (`litl.config.MOVED_KEYS`).
+    # Keys that moved keep working, with a word on their new name (`litl.old_settings.MOVED_KEYS`).
     sys.argv[1:], messages = translate_overrides(sys.argv[1:])
     for message in messages:
         say(f"litl: warning: {message}")
+    # Observers and controllers of the user's own register when their module is imported: before
+    # the schema is built, so that their settings are keys like the built-ins'.
+    with exit_on_user_error("litl", write=say):
+        import_named_modules(sys.argv[1:])
+    register_with_hydra()
     _main()
 
 

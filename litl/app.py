@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import pathlib
 from collections.abc import Sequence
 from typing import Literal
@@ -25,11 +24,12 @@ from litl.config import (
     TaskKind,
     from_hydra,
     register_with_hydra,
-    translate_overrides,
 )
 from litl.loop import run
 from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock
+from litl.old_settings import translate_overrides
+from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
 from litl.stuck import seed_ends, shown
@@ -49,10 +49,11 @@ def compose(overrides: Sequence[str] = ()) -> Config:
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
 
-    register_with_hydra()
     overrides, messages = translate_overrides(overrides)
     for message in messages:
         warnings.warn(message, FutureWarning, stacklevel=2)
+    import_named_modules(overrides)
+    register_with_hydra()
     try:
         with initialize_config_module("litl.conf", version_base="1.3"):
             cfg = hydra_compose("config", overrides=overrides)
@@ -61,8 +62,38 @@ def compose(overrides: Sequence[str] = ()) -> Config:
         # (``Key 'episods' not in 'LoopConfig'``).
         cause = error.__cause__
         detail = f"\n{cause}" if isinstance(cause, OmegaConfBaseException) else ""
-        raise SettingsError(f"{error}{detail}") from error
+        raise SettingsError(f"{error}{detail}{section_keys(cause)}") from error
     return from_hydra(cfg)
+
+
+def import_named_modules(overrides: Sequence[str]) -> None:
+    """Import the modules that `observer.module=` and `controller.module=` overrides name (each
+    value of a sweep's list), so the observers and controllers they register are known when the
+    config is composed."""
+    for override in overrides:
+        key, _, value = override.lstrip("+~").partition("=")
+        if key in ("observer.module", "controller.module") and value not in ("", "null"):
+            for module in value.split(","):
+                part = key.split(".")[0]
+                import_module(key, module.strip(), f"litl.{part}s.register")
+
+
+def section_keys(cause: BaseException | None) -> str:
+    """For a key Hydra refused under an observer's or controller's section: which observer it
+    is and its valid keys (Hydra names only the settings class)."""
+    from litl.registry import registry
+
+    key = str(getattr(cause, "full_key", "") or "")
+    part, _, rest = key.partition(".")
+    section = rest.partition(".")[0]
+    if part not in ("observer", "controller") or not section:
+        return ""
+    settings = registry(part).sections().get(section)
+    if settings is None:
+        return ""
+    readers = [n for n in registry(part).names() if registry(part).get(n).section == section]
+    valid = [f.name for f in dataclasses.fields(settings)]
+    return f"\n{part} {', '.join(readers)}: the keys of {part}.{section} are {valid}"
 
 
 def build_robot(config: Config) -> Robot:
@@ -109,27 +140,13 @@ def _with_material(robot: Robot, material: MaterialConfig) -> Robot:
         ) from None
 
 
-def import_user_module(key: str, module: str | None, registers: str) -> None:
-    """Import the module a setting names (it registers robots or observers of the user's own)."""
-    if not module:
-        return
-    try:
-        importlib.import_module(module)
-    except ImportError as error:
-        raise SettingsError(
-            f"{key}={module!r} could not be imported ({error}); give a module "
-            f"importable from the working directory or installed, which calls "
-            f"{registers}",
-            key,
-        ) from None
+# The module a setting names (it registers robots, observers or controllers of the user's own).
+import_user_module = import_module
 
 
 def check_observer(config: Config) -> None:
-    """Import `observer.module` (if any), then check that `observer.kind` is registered."""
-    from litl.loop import observers
-
-    import_user_module("observer.module", config.observer.module, "litl.loop.observers.register")
-    observers.check_kind(config)
+    """Check that `observer.kind` is registered (building the config imported `observer.module`)."""
+    config.observer.check()
 
 
 def _as_made(robot: Robot, config: Config, run_dir: pathlib.Path) -> Robot:

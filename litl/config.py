@@ -1,54 +1,61 @@
-"""litl's one config model: frozen dataclasses shared by the Python API and the Hydra CLI.
+"""litl's config model: the sections the core owns, and the parts that registries fill.
 
 The tree mirrors the command line: `Config.loop.episodes` is `loop.episodes=...`,
-`Config.observer.kind` is `observer=...` / `observer.kind=...`. The defaults here are the only
-ones (the YAML files under `litl/conf` select groups and set what a choice changes); every value
-is checked once, when its dataclass is built, and an error names the key as typed on the command
-line:
+`Config.observer.kind` is `observer=...` / `observer.kind=...`. The defaults here and in each
+observer's and controller's settings dataclass are the only ones (the YAML files under
+`litl/conf` select groups and set what a choice changes); every value is checked once, when its
+section is built (`litl.settings.Settings`), and an error names the key as typed:
 
     from litl.config import Config
-    config = Config().replace(observer={"kind": "kmeans"}, loop={"episodes": 3}, seeds=10)
+    config = Config().replace(observer={"kind": "kmeans", "kmeans": {"clusters": 4}}, seeds=10)
     result = litl.loop.run(litl.robots.get("biped"), config, "outputs/biped")
 
-`register_with_hydra` puts the same classes in Hydra's ConfigStore, where they type every key:
-a typo, a wrong type or an unknown kind (`controller.kind=mpl`) fails when the config is
-composed, naming the choices. Observer kinds are the one open set (observers of your own register
-by name, `litl.loop.observers.register`), so `observer.kind` is checked against that registry.
+The core's sections are robot, task, sim, loop, experiment and output. `observer` and `controller`
+are *parts*: a `kind` chosen among registered names, an optional `module` that registers a user's
+own, and one section per registered settings dataclass (``observer.vae``, ``observer.mine``),
+which each observer or controller declares with its registration (`litl.observers.register`,
+`litl.controllers.register`; `litl.registry`). `register_with_hydra` builds the Hydra schema from
+the same classes, so a typo, a wrong type or an unknown choice fails when the config is composed.
 
-This module imports no JAX, so that `litl.report` can read the defaults without it.
+Importing this module imports no JAX; building a `Config` imports the observers and controllers
+(their settings classes live with them).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
-import math
-import typing
-from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar, NoReturn, Self, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-from litl.errors import UserError
+from litl.registry import import_module, registry
+from litl.settings import Settings, SettingsError, from_dict, json_safe, number
+from litl.trees import flatten, unflatten
 
+__all__ = [
+    "Config",
+    "ControllerConfig",
+    "ExperimentConfig",
+    "LearningConfig",
+    "LoopConfig",
+    "MaterialConfig",
+    "ObserverConfig",
+    "OutputConfig",
+    "RobotConfig",
+    "RolloutConfig",
+    "SafeguardsConfig",
+    "Settings",
+    "SettingsError",
+    "TaskConfig",
+    "flatten",
+    "from_dict",
+    "json_safe",
+    "unflatten",
+]
 
-class SettingsError(UserError, ValueError):
-    """A setting litl cannot use; the message names its key (as typed on the command line) and
-    says how to fix it.
-
-    Attributes:
-      key: the dotted key at fault (``"loop.episodes"``), or None when several are.
-    """
-
-    def __init__(self, message: str, key: str | None = None):
-        super().__init__(message)
-        self.key = key
-
-
-class ControllerKind(enum.StrEnum):
-    """What maps features to actuation: an MLP (closed loop) or the open-loop sinusoid baseline."""
-
-    mlp = "mlp"
-    sinusoid = "sinusoid"
+# For code written before the schema moved to `litl.settings`.
+_Checked = Settings
+_number = number
 
 
 class Schedule(enum.StrEnum):
@@ -79,16 +86,6 @@ class Activation(enum.StrEnum):
     relu = "relu"  # the paper's
 
 
-class GridField(enum.StrEnum):
-    velocity = "velocity"  # node momentum / mass, the paper's
-    mass_weighted = "mass_weighted"  # node velocity * mass / a full cell's mass (litl.sim.fields)
-
-
-class FeatureGradient(enum.StrEnum):
-    stop = "stop"  # the task-loss gradient treats the features as constants
-    full = "full"  # the paper's end-to-end backpropagation through them
-
-
 class LoggerKind(enum.StrEnum):
     """Where a run's live logs go besides metrics.jsonl (`litl.loop.loggers`)."""
 
@@ -111,11 +108,6 @@ class DType(enum.StrEnum):
     float64 = "float64"  # needs jax.enable_x64
 
 
-# The closed-loop controller's clock: the sinusoid baseline's 30 rad/s (about 5 strides a second).
-CLOCK_PERIOD = 2 * math.pi / 30.0
-# The closed-loop controller's input gain on the observer's features (ControllerConfig.feature_scale).
-FEATURE_SCALE = 0.2
-
 RESOLUTIONS: dict[Resolution, dict[int, float | None]] = {
     Resolution.paper: {2: None, 3: None},
     Resolution.demo: {2: 1 / 64, 3: 1 / 32},
@@ -123,116 +115,8 @@ RESOLUTIONS: dict[Resolution, dict[int, float | None]] = {
 }
 
 
-def _number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-class _Checked:
-    """Shared by the config dataclasses: `KEY` is their place in the tree (``"loop.learning"``);
-    `__post_init__` normalizes lists to tuples and strings to their enums, then `check`s."""
-
-    KEY = ""
-    if TYPE_CHECKING:  # every subclass is a dataclass
-        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
-
-    def __post_init__(self) -> None:
-        types = _field_types(type(self))
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            kind = _enum_of(types[f.name])
-            if kind is not None and value is not None and not isinstance(value, kind):
-                try:
-                    value = kind(value)
-                except ValueError:
-                    self._invalid(f.name, f"choose one of {[k.value for k in kind]}")
-            if isinstance(value, list):
-                value = tuple(value)
-            object.__setattr__(self, f.name, value)
-        self.check()
-
-    def check(self) -> None:
-        """Raise `SettingsError` for a value that cannot be used."""
-
-    def _key(self, name: str) -> str:
-        return f"{self.KEY}.{name}" if self.KEY else name
-
-    def _invalid(self, name: str, text: str) -> NoReturn:
-        raise SettingsError(f"{self._key(name)}={getattr(self, name)!r}: {text}", self._key(name))
-
-    def _positive_ints(self, *names: str, optional: tuple[str, ...] = ()) -> None:
-        for name in names:
-            value = getattr(self, name)
-            if value is None and name in optional:
-                continue
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                self._invalid(
-                    name, "must be a positive integer" + (", or null for none" if name in optional else "")
-                )
-
-    def _positive_numbers(self, *names: str, optional: tuple[str, ...] = (), zero: bool = False) -> None:
-        for name in names:
-            value = getattr(self, name)
-            if value is None and name in optional:
-                continue
-            if not (_number(value) and (value >= 0 if zero else value > 0)):
-                self._invalid(
-                    name,
-                    ("must be a number >= 0" if zero else "must be a positive number")
-                    + (", or null for none" if name in optional else ""),
-                )
-
-    def replace(self, **changes: Any) -> Self:
-        """A copy with `changes`; a dict for a nested config changes only the keys it names:
-        ``config.replace(loop={"episodes": 3}, seeds=2)``."""
-        merged = {}
-        for name, value in _moved_changes(self.KEY, changes).items():
-            current = getattr(self, name)
-            if isinstance(value, dict) and isinstance(current, _Checked):
-                value = current.replace(**value)
-            merged[name] = value
-        return dataclasses.replace(self, **merged)
-
-
-_C = TypeVar("_C", bound=_Checked)
-
-
-def _moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
-    """`changes` to the config at `section` with moved keys renamed (a warning each): at the
-    top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``."""
-    import warnings
-
-    prefix = f"{section}." if section else ""
-    flat = flatten(changes, prefix)
-    if not any(key in MOVED_KEYS for key in flat):
-        return changes
-    for key in flat:
-        if key in MOVED_KEYS:
-            warnings.warn(moved_message(key), FutureWarning, stacklevel=4)
-    return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
-
-
-def _field_types(kind: type) -> dict[str, Any]:
-    """`kind`'s field annotations resolved to types (this module's are strings)."""
-    return typing.get_type_hints(kind)
-
-
-def _classes(annotation: object) -> tuple[type, ...]:
-    """The classes an annotation admits: ``X`` and ``X | None`` give (X,)."""
-    return tuple(a for a in typing.get_args(annotation) or (annotation,) if isinstance(a, type))
-
-
-def _enum_of(annotation: object) -> type[enum.Enum] | None:
-    """The enum a field's annotation names (its closed set of values), or None."""
-    return next((a for a in _classes(annotation) if issubclass(a, enum.Enum)), None)
-
-
-def _dataclass_of(annotation: object) -> type[_Checked] | None:
-    """The config dataclass a field's annotation names (a nested section), or None."""
-    return next((a for a in _classes(annotation) if issubclass(a, _Checked)), None)
-
-
 @dataclass(frozen=True)
-class MaterialConfig(_Checked):
+class MaterialConfig(Settings):
     """The robot's material from the command line; each null keeps the robot's own value
     (`litl.robots.Material`; the catalog's robots: E = 20 in [15, 30], ν = 0.25, density 1,
     actuator strength 3, yield past a stretch of 3). The time step follows the stiffest allowed
@@ -258,14 +142,14 @@ class MaterialConfig(_Checked):
     def check(self) -> None:
         self._positive_numbers("youngs_modulus", "density", optional=("youngs_modulus", "density"))
         if self.bounds is not None and not (
-            len(self.bounds) == 2 and all(map(_number, self.bounds)) and 0 < self.bounds[0] <= self.bounds[1]
+            len(self.bounds) == 2 and all(map(number, self.bounds)) and 0 < self.bounds[0] <= self.bounds[1]
         ):
             self._invalid("bounds", "must be [E_min, E_max] with 0 < E_min <= E_max")
         if self.poisson_ratio is not None and not (
-            _number(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5
+            number(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5
         ):
             self._invalid("poisson_ratio", "must lie in (-1, 0.5)")
-        if self.actuator_strength is not None and not _number(self.actuator_strength):
+        if self.actuator_strength is not None and not number(self.actuator_strength):
             self._invalid("actuator_strength", "must be a finite number")
 
     def changes(self) -> dict[str, Any]:
@@ -279,7 +163,7 @@ class MaterialConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class RobotConfig(_Checked):
+class RobotConfig(Settings):
     """Which robot the CLI builds (`litl.app.build_robot`); the Python API passes a `Robot`.
 
     Attributes:
@@ -300,162 +184,197 @@ class RobotConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class TaskConfig(_Checked):
+class TaskConfig(Settings):
     KEY = "task"
     kind: TaskKind = TaskKind.default
 
 
-@dataclass(frozen=True)
-class AutoencoderConfig(_Checked):
-    """The (V)AE observers' network and what it sees (`observer=vae` and `observer=ae`).
+class PartConfig(Settings):
+    """A part of the config that a registry fills (`ObserverConfig`, `ControllerConfig`): `kind`
+    (a registered name), `module` (imported first: it registers a user's own) and one settings
+    section per registered settings dataclass, read as attributes (``config.observer.vae``) and
+    written as keys (``observer.vae.latent_dim=4``). `sections` holds them, as (name, settings)
+    pairs; building the part fills in every registered section's defaults."""
 
-    Attributes:
-      latent_dim: r, latent variables (the controller's features).
-      window: side (domain units) of the grid window it sees, centred on the robot's particle
-        centroid and rounded up to a multiple of 32 nodes (`litl.models.window`); None: the
-        whole grid (the paper's).
-      channels: widths of the five encoder convolutions.
-      activation: the network's activation (`Activation`; the paper's: relu).
-      field: what it sees of the grid and the replay buffer stores (`GridField`): node
-        velocities (the paper's), or velocities weighted by the node's mass relative to a full
-        cell, which fades the light boundary nodes whose velocity is mostly numerical noise.
-    """
+    PART: ClassVar[str] = ""
+    if TYPE_CHECKING:  # every subclass has these fields
+        kind: str
+        module: str | None
+        sections: tuple[tuple[str, Settings], ...]
 
-    KEY = "observer.vae"
-    latent_dim: int = 8
-    window: float | None = 0.5
-    channels: tuple[int, ...] = (8, 16, 32, 32, 64)
-    activation: Activation = Activation.elu
-    field: GridField = GridField.mass_weighted
-
-    def check(self) -> None:
-        self._positive_ints("latent_dim")
-        self._positive_numbers("window", optional=("window",))
-        if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1 for c in self.channels):
-            self._invalid("channels", "needs 5 positive integer widths")
-
-
-@dataclass(frozen=True)
-class KMeansConfig(_Checked):
-    """The k-means baseline (`observer=kmeans`). Attributes: clusters, k clusters of the rest
-    shape (features: each cluster's mean position and velocity)."""
-
-    KEY = "observer.kmeans"
-    clusters: int = 6
+    def __post_init__(self) -> None:
+        import_module(f"{self.PART}.module", self.module, f"litl.{self.PART}s.register")
+        given = dict(self.sections)
+        known = registry(self.PART).sections()
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise SettingsError(self._unknown_sections(unknown), f"{self.PART}.{unknown[0]}")
+        filled = tuple((name, given.get(name) or kind()) for name, kind in known.items())
+        object.__setattr__(self, "sections", filled)
+        super().__post_init__()
 
     def check(self) -> None:
-        self._positive_ints("clusters")
+        if registry(self.PART).find(self.kind) is None:
+            hint = (
+                f"; {self.PART}.module={self.module!r} registered no {self.PART} of that name"
+                if self.module
+                else f"; a{'n' if self.PART[0] in 'aeiou' else ''} {self.PART} of your own: "
+                f"{self.PART}.kind=<name> {self.PART}.module=<module that registers it>"
+            )
+            raise SettingsError(
+                f"{self.PART}.kind={self.kind!r}: unknown {self.PART}; choose one of "
+                f"{list(registry(self.PART).names())}{hint}",
+                f"{self.PART}.kind",
+            )
+
+    def _unknown_sections(self, unknown: list[str]) -> str:
+        names = list(registry(self.PART).sections())
+        return (
+            f"unknown {self.PART} section(s) {[f'{self.PART}.{u}' for u in unknown]}: no registered "
+            f"{self.PART} reads them; the sections are {names} (a{'n' if self.PART[0] in 'aeiou' else ''} "
+            f"{self.PART} of your own: {self.PART}.module=<module that registers it>)"
+        )
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name == "sections":
+            raise AttributeError(name)
+        for section, settings in self.sections:
+            if section == name:
+                return settings
+        raise AttributeError(f"{type(self).__name__} has no field or section {name!r}")
+
+    @property
+    def section(self) -> Settings | None:
+        """The settings of the chosen `kind` (its section), or None if it has none."""
+        return dict(self.sections).get(registry(self.PART).get(self.kind).section)
+
+    def replace(self, **changes: Any) -> Any:
+        from litl.old_settings import moved_changes
+
+        changes = moved_changes(self.KEY, changes)
+        own = {f.name for f in dataclasses.fields(self)} - {"sections"}
+        plain = {key: value for key, value in changes.items() if key in own}
+        if plain.get("module"):
+            import_module(f"{self.PART}.module", plain["module"], f"litl.{self.PART}s.register")
+        sections = dict(self.sections)
+        known = registry(self.PART).sections()
+        unknown = sorted(set(changes) - own - set(known))
+        if unknown:
+            raise SettingsError(self._unknown_sections(unknown), f"{self.PART}.{unknown[0]}")
+        for name in set(changes) - own:
+            value = changes[name]
+            current = sections.get(name) or known[name]()
+            sections[name] = _replaced(current, value, f"{self.PART}.{name}")
+        return dataclasses.replace(self, **plain, sections=tuple(sections.items()))
+
+    def to_tree(self) -> dict[str, Any]:
+        own = {
+            f.name: json_safe(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "sections"
+        }
+        return {**own, **{name: json_safe(settings) for name, settings in self.sections}}
+
+    def record(self) -> dict[str, Any]:
+        """What run.json records: the part's own keys and the chosen kind's section only (two
+        runs differ in their observer exactly when that section differs)."""
+        tree = self.to_tree()
+        read = registry(self.PART).get(self.kind).section
+        return {key: value for key, value in tree.items() if not isinstance(value, dict) or key == read}
+
+    @classmethod
+    def from_tree(cls, values: dict[Any, Any]) -> Any:
+        own = {f.name for f in dataclasses.fields(cls)} - {"sections"}
+        plain = {key: value for key, value in values.items() if key in own}
+        import_module(f"{cls.PART}.module", plain.get("module"), f"litl.{cls.PART}s.register")
+        known = registry(cls.PART).sections()
+        sections = {}
+        for name, value in values.items():
+            if name in own:
+                continue
+            if name not in known or not isinstance(value, dict):
+                names = list(known)
+                raise SettingsError(
+                    f"unknown setting {cls.PART}.{name}: the {cls.PART}'s keys are {sorted(own)} and "
+                    f"the sections {names} (a{'n' if cls.PART[0] in 'aeiou' else ''} {cls.PART} of "
+                    f"your own: {cls.PART}.module=<module that registers it>)",
+                    f"{cls.PART}.{name}",
+                )
+            sections[name] = _built(known[name], value, f"{cls.PART}.{name}")
+        return cls(**plain, sections=tuple(sections.items()))  # type: ignore[call-arg]  # a dataclass
+
+
+def _built(kind: type[Settings], values: dict[str, Any], key: str) -> Settings:
+    """A registered section from plain values; a settings class that does not derive from
+    `Settings` gets its unknown keys and its constructor's errors named by their key."""
+    if issubclass(kind, Settings):
+        return kind.from_tree(values)
+    names = {f.name for f in dataclasses.fields(kind)}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise SettingsError(
+            f"unknown setting(s) {[f'{key}.{u}' for u in unknown]}; valid: {sorted(names)}", key
+        )
+    try:
+        return kind(**values)
+    except (TypeError, ValueError) as error:
+        raise SettingsError(f"{key}: {error}", key) from None
+
+
+def _replaced(current: Any, value: Any, key: str) -> Any:
+    if isinstance(value, dict):
+        if isinstance(current, Settings):
+            return current.replace(**value)
+        return _built(type(current), {**dataclasses.asdict(current), **value}, key)
+    return value
 
 
 @dataclass(frozen=True)
-class PCAConfig(_Checked):
-    """The PCA observer (`observer=pca`): a linear projection of the windowed grid field, fitted
-    on the replay buffer in every learning phase (`litl.observers.pca`).
+class ObserverConfig(PartConfig):
+    """What the controller sees: a registered observer (`litl.observers`) and its settings.
 
     Attributes:
-      components: r, principal components (the controller's features).
-      window: side (domain units) of the grid window it sees, as `observer.vae.window`.
-      field: what it sees of the grid and the replay buffer stores (`GridField`), as
-        `observer.vae.field` (runs from before this key read the VAE's).
-    """
-
-    KEY = "observer.pca"
-    components: int = 8
-    window: float | None = 0.5
-    field: GridField = GridField.mass_weighted
-
-    def check(self) -> None:
-        self._positive_ints("components")
-        self._positive_numbers("window", optional=("window",))
-
-
-@dataclass(frozen=True)
-class ObserverConfig(_Checked):
-    """What the controller sees. Each observer reads its own section (`vae` for vae and ae,
-    `kmeans`), so two runs differ in their observer exactly when that section differs.
-
-    Attributes:
-      kind: a registered observer (`litl.loop.observers`): vae (the method), ae (plain
-        autoencoder), kmeans (baseline), none (no features: open-loop control), or your own.
+      kind: vae (the method), ae (plain autoencoder), pca (linear baseline), kmeans (the
+        paper's baseline), none (no features: open-loop control), or your own.
       module: a module to import first, which registers observers of your own
-        (`litl.loop.observers.register`); then kind=<its name>.
-      vae: settings of the (V)AE observers (`AutoencoderConfig`).
-      kmeans: settings of the k-means observer (`KMeansConfig`).
-      pca: settings of the PCA observer (`PCAConfig`).
+        (`litl.observers.register`); then kind=<its name>.
+      sections: every registered observer's settings (read as ``observer.vae``,
+        ``observer.kmeans``, ...; each observer's dataclass documents its keys).
     """
 
     KEY = "observer"
+    PART = "observer"
     kind: str = "vae"
     module: str | None = None
-    vae: AutoencoderConfig = field(default_factory=AutoencoderConfig)
-    kmeans: KMeansConfig = field(default_factory=KMeansConfig)
-    pca: PCAConfig = field(default_factory=PCAConfig)
+    sections: tuple[tuple[str, Any], ...] = ()
 
 
 @dataclass(frozen=True)
-class MLPConfig(_Checked):
-    """The closed-loop MLP controller (`controller=mlp`).
-
-    Attributes:
-      widths: hidden layers.
-      period: the MLP also reads (sin, cos) of a clock of this period (s), as DiffTaichi's
-        closed-loop walkers read sine waves beside the state; None: features only (the
-        paper's). litl's default is the sinusoid baseline's 30 rad/s.
-      feature_scale: an input gain on the observer's features (1: the paper's); how fast, under
-        Adam, the features' pathway grows against the clock's.
-      feature_gradient: whether the task-loss gradient also flows through the features into the
-        simulated grid (`FeatureGradient`; full is the paper's end-to-end backpropagation).
-    """
-
-    KEY = "controller.mlp"
-    widths: tuple[int, ...] = (64, 64)
-    period: float | None = CLOCK_PERIOD
-    feature_scale: float = FEATURE_SCALE
-    feature_gradient: FeatureGradient = FeatureGradient.stop
-
-    def check(self) -> None:
-        if not all(isinstance(w, int) and w >= 1 for w in self.widths):
-            self._invalid("widths", "every width must be a positive integer")
-        self._positive_numbers("feature_scale")
-        self._positive_numbers("period", optional=("period",))
-
-
-@dataclass(frozen=True)
-class SinusoidConfig(_Checked):
-    """The open-loop baseline (`controller=sinusoid`, `litl.models.open_loop`). Attributes:
-    omega, the sinusoids' angular frequency (rad/s)."""
-
-    KEY = "controller.sinusoid"
-    omega: float = 30.0
-
-    def check(self) -> None:
-        self._positive_numbers("omega")
-
-
-@dataclass(frozen=True)
-class ControllerConfig(_Checked):
-    """The controller θ and its optimizer.
+class ControllerConfig(PartConfig):
+    """The controller θ (a registered controller, `litl.controllers`), its settings and its
+    optimizer.
 
     Attributes:
       kind: mlp (closed loop on the observer's features) or sinusoid (open loop; needs observer
-        none).
+        none), or your own.
+      module: a module to import first, which registers controllers of your own.
       learning_rate: Adam step size of θ.
-      mlp: settings of the MLP (`MLPConfig`).
-      sinusoid: settings of the sinusoid baseline (`SinusoidConfig`).
+      sections: every registered controller's settings (``controller.mlp``,
+        ``controller.sinusoid``).
     """
 
     KEY = "controller"
-    kind: ControllerKind = ControllerKind.mlp
+    PART = "controller"
+    kind: str = "mlp"
+    module: str | None = None
     learning_rate: float = 0.01
-    mlp: MLPConfig = field(default_factory=MLPConfig)
-    sinusoid: SinusoidConfig = field(default_factory=SinusoidConfig)
+    sections: tuple[tuple[str, Any], ...] = ()
 
     def check(self) -> None:
+        super().check()
         self._positive_numbers("learning_rate")
 
 
 @dataclass(frozen=True)
-class RolloutConfig(_Checked):
+class RolloutConfig(Settings):
     """The rollouts' length, float type and memory: the `sim.*` keys. (The simulator's own
     configuration, grid, dt, gravity and walls, is `litl.sim.SimConfig`, which a robot brings.)
 
@@ -498,7 +417,7 @@ SimSettings = RolloutConfig
 
 
 @dataclass(frozen=True)
-class LearningConfig(_Checked):
+class LearningConfig(Settings):
     """Hyperparameters of one learning phase.
 
     Attributes:
@@ -541,7 +460,7 @@ class LearningConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class SafeguardsConfig(_Checked):
+class SafeguardsConfig(Settings):
     """litl's additions to Algorithm 1 that keep an optimization from losing what it found; the
     paper has none of them (`method=paper`: null, null, null, 1). Measured in the docs' results.
 
@@ -575,12 +494,12 @@ class SafeguardsConfig(_Checked):
             zero=True,
             optional=("update_tolerance", "step_back_tolerance"),
         )
-        if not (_number(self.final_learning_rate_fraction) and 0 <= self.final_learning_rate_fraction <= 1):
+        if not (number(self.final_learning_rate_fraction) and 0 <= self.final_learning_rate_fraction <= 1):
             self._invalid("final_learning_rate_fraction", "must lie in [0, 1] (1 = constant step sizes)")
 
 
 @dataclass(frozen=True)
-class LoopConfig(_Checked):
+class LoopConfig(Settings):
     """Algorithm 1's loop: K episodes, each M optimization iterations (one simulation with
     backpropagation each) followed by a learning phase; the replay buffer; the ablation switches.
 
@@ -624,12 +543,12 @@ class LoopConfig(_Checked):
         self._positive_ints("episodes", "iterations", "snapshot_stride", "buffer_capacity")
         self._positive_ints("learning_seeds_at_once", optional=("learning_seeds_at_once",))
         self._positive_numbers("design_learning_rate")
-        if not (_number(self.alpha) and 0 < self.alpha <= 1):
+        if not (number(self.alpha) and 0 < self.alpha <= 1):
             self._invalid("alpha", "must lie in (0, 1] (1 = no target smoothing)")
 
 
 @dataclass(frozen=True)
-class ExperimentConfig(_Checked):
+class ExperimentConfig(Settings):
     """A preset's name (it names the run directory), what it is, and what the paper ran."""
 
     KEY = "experiment"
@@ -639,7 +558,7 @@ class ExperimentConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class OutputConfig(_Checked):
+class OutputConfig(Settings):
     """Attributes: progress bar on stderr; GIF of the final robot (seed 0); the loss plot, robot
     drawing and latent/cluster pictures; simulation steps per animation frame; the live logger
     (`LoggerKind`: tensorboard, wandb or none)."""
@@ -656,7 +575,7 @@ class OutputConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class Config(_Checked):
+class Config(Settings):
     """Everything one run needs. `litl.loop.run(robot, config, ...)` reads observer,
     controller, sim, loop, seeds and seed; robot and task say which robot the CLI builds,
     experiment and output what it records and draws.
@@ -684,11 +603,12 @@ class Config(_Checked):
         self._positive_ints("seeds")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             self._invalid("seed", "must be an integer >= 0")
-        if self.controller.kind == ControllerKind.sinusoid and self.observer.kind != "none":
+        open_loop = registry("controller").get(self.controller.kind).traits.get("open_loop", False)
+        if open_loop and self.observer.kind != "none":
             raise SettingsError(
-                f"observer.kind={self.observer.kind!r}: the sinusoid controller is open loop and "
-                f"reads no observer; set observer none (controller=sinusoid on the command line "
-                f"does so)",
+                f"observer.kind={self.observer.kind!r}: the {self.controller.kind} controller is open "
+                f"loop and reads no observer; set observer none (controller={self.controller.kind} on "
+                f"the command line does so)",
                 "observer.kind",
             )
 
@@ -701,7 +621,8 @@ class Config(_Checked):
     def run_settings(self) -> dict[str, Any]:
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
         match them): method, observer, controller, sim, loop, seeds, seed."""
-        tree = json_safe(dataclasses.asdict(self))
+        tree = self.to_tree()
+        tree["observer"], tree["controller"] = self.observer.record(), self.controller.record()
         for section, keys in EXECUTION_KEYS.items():  # they change memory and time only
             for key in keys:
                 tree[section].pop(key)
@@ -721,13 +642,23 @@ def seeds_at_once(loop: LoopConfig, seeds: int) -> int:
     return seeds if setting is None else min(setting, seeds)
 
 
-def json_safe(tree: Any) -> Any:
-    """Enums as their values, tuples as lists: the tree as `json.dumps` / YAML write it."""
-    if isinstance(tree, dict):
-        return {key: json_safe(value) for key, value in tree.items()}
-    if isinstance(tree, (list, tuple)):
-        return [json_safe(value) for value in tree]
-    return tree.value if isinstance(tree, enum.Enum) else tree
+def read_sections_only(tree: dict[str, Any]) -> dict[str, Any]:
+    """Of the observer's and the controller's sections, only the one the chosen kind reads, as
+    run.json records them since 2026-11-27 (earlier runs recorded every built-in's); a kind not
+    registered (a user's module not imported) keeps them all."""
+    flat = flatten(tree)
+    for part, default in (("observer", "vae"), ("controller", "mlp")):
+        entry = registry(part).find(str(flat.get(f"{part}.kind", default)))
+        if entry is None:
+            continue
+        flat = {
+            key: value
+            for key, value in flat.items()
+            if not key.startswith(f"{part}.")
+            or key.count(".") == 1
+            or key.startswith(f"{part}.{entry.section}.")
+        }
+    return unflatten(flat)
 
 
 def method_changes(method: str | Method) -> dict[str, Any]:
@@ -747,161 +678,30 @@ def method_changes(method: str | Method) -> dict[str, Any]:
     return yaml.safe_load(text) or {}
 
 
-# The old spellings of settings, in two tables because they are two namespaces: dotted keys that
-# moved since this module was written, and the flat layout of run.json files from before it.
-#
-# Keys that moved, by their old dotted name. The old spellings are still accepted, with a
-# warning, on the command line (`translate_overrides`), in `Config.replace` and in older
-# run.json files (`upgrade`, `recorded_settings`).
-MOVED_KEYS = {
-    "observer.latent_dim": "observer.vae.latent_dim",
-    "observer.window": "observer.vae.window",
-    "observer.channels": "observer.vae.channels",
-    "observer.activation": "observer.vae.activation",
-    "observer.field": "observer.vae.field",
-    "observer.clusters": "observer.kmeans.clusters",
-    "controller.widths": "controller.mlp.widths",
-    "controller.period": "controller.mlp.period",
-    "controller.feature_scale": "controller.mlp.feature_scale",
-    "controller.feature_gradient": "controller.mlp.feature_gradient",
-    "controller.omega": "controller.sinusoid.omega",
-    "loop.gradient_clip": "loop.safeguards.gradient_clip",
-    "loop.update_tolerance": "loop.safeguards.update_tolerance",
-    "loop.step_back_tolerance": "loop.safeguards.step_back_tolerance",
-    "loop.final_learning_rate_fraction": "loop.safeguards.final_learning_rate_fraction",
-    "loop.replay": "loop.replay_buffer",
-    "loop.replay_capacity": "loop.buffer_capacity",
-}
+def hydra_schema(kind: type[Settings] = Settings) -> type:
+    """The Hydra schema of `Config` (or of one section): the same dataclasses, with each part
+    (`PartConfig`) a dataclass whose fields are its keys and its registered sections, so Hydra
+    types every key of every registered observer and controller."""
+    from litl.settings import field_types, settings_class_of
 
-
-# run.json files written before this module (before 2026-11-23) kept the run's settings in one
-# flat "loop" object; where each of its keys lives now. They are no keys of today's command line
-# (`observer=` there picks a group, not `observer.kind`), so only `recorded_settings` reads them.
-FLAT_RUN_KEYS = {
-    "episodes": "loop.episodes",
-    "iterations": "loop.iterations",
-    "steps": "sim.steps",
-    "dtype": "sim.dtype",
-    "observer": "observer.kind",
-    "latent_dim": "observer.vae.latent_dim",
-    "window": "observer.vae.window",
-    "channels": "observer.vae.channels",
-    "activation": "observer.vae.activation",
-    "clusters": "observer.kmeans.clusters",
-    "controller": "controller.kind",
-    "controller_widths": "controller.mlp.widths",
-    "controller_omega": "controller.sinusoid.omega",
-    "controller_period": "controller.mlp.period",
-    "feature_gradient": "controller.mlp.feature_gradient",
-    "learning_rate": "controller.learning_rate",
-    "design_learning_rate": "loop.design_learning_rate",
-    "gradient_clip": "loop.safeguards.gradient_clip",
-    "snapshot_stride": "loop.snapshot_stride",
-    "replay_capacity": "loop.buffer_capacity",
-    "alpha": "loop.alpha",
-    "replay": "loop.replay_buffer",
-    "codesign": "loop.codesign",
-    "learning": "loop.learning",
-    "seeds": "seeds",
-    "seed": "seed",
-}
-
-
-def current_key(key: str) -> str:
-    """Where a setting lives now, under any spelling a run.json may hold: a moved dotted key
-    (`MOVED_KEYS`), a key of the flat layout (`FLAT_RUN_KEYS`) or today's."""
-    return FLAT_RUN_KEYS.get(key) or MOVED_KEYS.get(key, key)
-
-
-def recorded_settings(saved: dict[str, Any]) -> dict[str, Any]:
-    """A parsed run.json's settings by today's dotted key (``"loop.alpha"``), as
-    `Config.run_settings` names them; older layouts translated, and a run recorded before
-    methods were named started from litl's."""
-    if isinstance(saved.get("config"), dict):
-        flat = flatten(saved["config"])
-    else:
-        legacy: dict[str, Any] = dict(saved.get("loop", {}))
-        one_shot = legacy.pop("one_shot", False)
-        simultaneous = legacy.pop("simultaneous", False)
-        schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
-        moved = {FLAT_RUN_KEYS.get(key, key): value for key, value in legacy.items()}
-        flat = {**flatten(moved), "loop.schedule": schedule}
-    flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
-    flat.setdefault("method", Method.litl.value)
-    # The PCA observer read the VAE's field until it had its own (2026-11-27).
-    flat.setdefault("observer.pca.field", flat.get("observer.vae.field", GridField.mass_weighted.value))
-    return flat
-
-
-def moved_message(old: str) -> str:
-    return f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will not for ever"
-
-
-def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]:
-    """Command-line overrides with moved keys renamed (`MOVED_KEYS`), and a message for each:
-    ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``."""
-    translated, messages = [], []
-    for override in overrides:
-        prefix = override[:1] if override[:1] in "+~" else ""
-        key, equals, value = override[len(prefix) :].partition("=")
-        if key in MOVED_KEYS:
-            messages.append(moved_message(key))
-            override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
-        translated.append(override)
-    return translated, messages
-
-
-def upgrade(tree: dict[str, Any]) -> dict[str, Any]:
-    """A run's nested settings (`run.json`'s "config") with moved keys renamed; a run recorded
-    before methods were named started from litl's; one recorded before a section was added ran
-    with its defaults."""
-    flat = flatten(tree)
-    flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
-    flat.setdefault("method", Method.litl.value)
-    # The PCA observer read the VAE's field until it had its own (2026-11-27).
-    flat.setdefault("observer.pca.field", flat.get("observer.vae.field", GridField.mass_weighted.value))
-    # observer.pca is read only by the PCA observer, which came with it.
-    for key, value in flatten({"observer": {"pca": json_safe(dataclasses.asdict(PCAConfig()))}}).items():
-        flat.setdefault(key, value)
-    return unflatten(flat)
-
-
-def unflatten(flat: dict[str, Any]) -> dict[str, Any]:
-    """The nested dict of a dotted-key dict (`flatten`'s inverse)."""
-    tree: dict[str, Any] = {}
-    for key, value in flat.items():
-        *parents, leaf = key.split(".")
-        node = tree
-        for parent in parents:
-            node = node.setdefault(parent, {})
-        node[leaf] = value
-    return tree
-
-
-def from_dict(kind: type[_C], values: dict[Any, Any]) -> _C:
-    """Build the config dataclass `kind` from a nested dict (a composed Hydra config as plain
-    containers, or `run.json`); nested dicts become nested configs."""
-    fields = {f.name: f for f in dataclasses.fields(kind)}
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        prefix = f"{kind.KEY}." if kind.KEY else ""
-        raise SettingsError(f"unknown setting(s) {[prefix + u for u in unknown]}")
-    built = {}
-    for name, value in values.items():
-        nested = _dataclass_of(_field_types(kind)[name])
-        built[name] = from_dict(nested, value) if nested and isinstance(value, dict) else value
-    return kind(**built)
-
-
-def flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """A nested dict's leaves by dotted key: ``{"loop.episodes": 10, ...}``."""
-    flat = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            flat.update(flatten(value, f"{prefix}{key}."))
+    kind = Config if kind is Settings else kind
+    hints = field_types(kind)
+    fields: list[tuple[str, Any, Any]] = []
+    for f in dataclasses.fields(kind):
+        if f.name == "sections":
+            part: Any = kind
+            for name, settings in registry(part.PART).sections().items():
+                fields.append((name, settings, field(default_factory=settings)))
+            continue
+        nested = settings_class_of(hints[f.name])
+        if nested is not None and issubclass(nested, PartConfig):
+            schema = hydra_schema(nested)
+            fields.append((f.name, schema, field(default_factory=schema)))
+        elif f.default is not dataclasses.MISSING:
+            fields.append((f.name, hints[f.name], field(default=f.default)))
         else:
-            flat[prefix + key] = value
-    return flat
+            fields.append((f.name, hints[f.name], field(default_factory=f.default_factory)))
+    return dataclasses.make_dataclass(f"{kind.__name__}Schema", fields)
 
 
 def register_with_hydra() -> None:
@@ -918,9 +718,19 @@ def register_with_hydra() -> None:
             for key in node:
                 writable(node._get_node(key))
 
-    node = OmegaConf.structured(Config)
+    node = OmegaConf.structured(hydra_schema())
     writable(node)
-    ConfigStore.instance().store(name="litl_schema", node=node)
+    store = ConfigStore.instance()
+    store.store(name="litl_schema", node=node)
+    # A registered observer or controller without a YAML file of its own (a user's) is an option
+    # of its group too: observer=<name>.
+    from importlib import resources
+
+    for part in ("observer", "controller"):
+        files = resources.files("litl.conf") / part
+        for name in registry(part).names():
+            if not (files / f"{name}.yaml").is_file():
+                store.store(group=part, name=name, node={"kind": name})
 
 
 def from_hydra(cfg: Any) -> Config:
@@ -931,3 +741,35 @@ def from_hydra(cfg: Any) -> Config:
     assert isinstance(plain, dict)  # a DictConfig converts to a dict
     plain.pop("hydra", None)
     return from_dict(Config, plain)
+
+
+# Names that lived here before observers and controllers owned their settings (2026-11-27), and
+# the old-spelling tables, which moved next to their readers (`litl.old_settings`).
+_MOVED_NAMES = {
+    "AutoencoderConfig": ("litl.observers.autoencoder", "AutoencoderSettings"),
+    "KMeansConfig": ("litl.observers.kmeans", "KMeansSettings"),
+    "PCAConfig": ("litl.observers.pca", "PCASettings"),
+    "GridField": ("litl.observers.interface", "GridField"),
+    "Activation": ("litl.observers.autoencoder", "Activation"),
+    "MLPConfig": ("litl.controllers.mlp", "MLPSettings"),
+    "SinusoidConfig": ("litl.controllers.sinusoid", "SinusoidSettings"),
+    "FeatureGradient": ("litl.controllers.mlp", "FeatureGradient"),
+    "CLOCK_PERIOD": ("litl.controllers.mlp", "CLOCK_PERIOD"),
+    "FEATURE_SCALE": ("litl.controllers.mlp", "FEATURE_SCALE"),
+    "MOVED_KEYS": ("litl.old_settings", "MOVED_KEYS"),
+    "FLAT_RUN_KEYS": ("litl.old_settings", "FLAT_RUN_KEYS"),
+    "current_key": ("litl.old_settings", "current_key"),
+    "recorded_settings": ("litl.old_settings", "recorded_settings"),
+    "translate_overrides": ("litl.old_settings", "translate_overrides"),
+    "upgrade": ("litl.old_settings", "upgrade"),
+    "moved_message": ("litl.old_settings", "moved_message"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED_NAMES:
+        import importlib
+
+        module, attribute = _MOVED_NAMES[name]
+        return getattr(importlib.import_module(module), attribute)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

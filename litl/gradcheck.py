@@ -90,7 +90,8 @@ def check_gradients(
     import jax.numpy as jnp
 
     from litl.app import build_robot, check_observer
-    from litl.config import DType, FeatureGradient
+    from litl.config import DType
+    from litl.controllers.mlp import FeatureGradient
     from litl.loop.algorithm import make_algorithm
 
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:

@@ -26,8 +26,9 @@ import pathlib
 import sys
 from typing import Any, cast
 
-from litl.config import Config, from_dict, upgrade
+from litl.config import Config, from_dict
 from litl.errors import UserError, exit_on_user_error
+from litl.old_settings import upgrade
 
 
 class ReplayError(UserError, ValueError):

@@ -168,7 +168,10 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("observer.kind=vea", "observer.kind='vea': unknown observer"),
         ("seeds=0", "^seeds=0: must be a positive integer"),
         ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
-        ("controller.kind=mpl", "Invalid value 'mpl', expected one of \\[mlp, sinusoid\\]"),
+        (
+            "controller.kind=mpl",
+            r"controller.kind='mpl': unknown controller; choose one of \['mlp', 'sinusoid'\]",
+        ),
         ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
         ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),
         ("robot.dx=0.03", "must divide the domain"),

@@ -24,7 +24,13 @@ PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "litl"
 FORBIDDEN = {
     "litl.sim": ("litl.robots", "litl.models", "litl.observers", "litl.loop"),
     "litl.models": ("litl.observers", "litl.loop"),
-    "litl.observers": ("litl.loop",),
+    "litl.observers": ("litl.loop", "litl.controllers"),
+    "litl.controllers": ("litl.loop", "litl.observers"),
+    # The settings' machinery is the bottom: what every section, registry and reader builds on.
+    "litl.settings": ("litl.config", "litl.registry", "litl.observers", "litl.controllers", "litl.loop"),
+    "litl.trees": ("litl.settings", "litl.config", "litl.registry", "litl.old_settings"),
+    "litl.registry": ("litl.config", "litl.observers", "litl.controllers", "litl.loop"),
+    "litl.old_settings": ("litl.config", "litl.registry", "litl.settings", "litl.loop"),
 }
 
 

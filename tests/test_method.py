@@ -11,8 +11,9 @@ import warnings
 import pytest
 
 from litl.app import compose
-from litl.config import MOVED_KEYS, Config, SettingsError, flatten, translate_overrides, upgrade
+from litl.config import Config, SettingsError, flatten, read_sections_only
 from litl.errors import UserError
+from litl.old_settings import MOVED_KEYS, translate_overrides, upgrade
 
 # The paper's value of every key where litl's default differs (the paper, Sec. 4 and Fig. 3:
 # the whole grid's velocities into a ReLU VAE, features only into the controller, gradients
@@ -65,7 +66,10 @@ LITL_PRESETS = ("biped_compare", "walkers3d")  # the measured comparisons' own s
 
 
 def settings(config: Config) -> dict:
-    return flatten(config.run_settings())
+    """The run's settings, every observer's and controller's section included (run.json records
+    the chosen one's only)."""
+    recorded = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
+    return {k: v for k, v in flatten(config.to_tree()).items() if k.split(".")[0] in recorded}
 
 
 def test_method_paper_sets_every_key_to_the_papers_value():
@@ -119,24 +123,31 @@ def test_moved_keys_still_work_with_a_word_on_their_new_name():
 
 
 def test_an_older_run_json_reads_under_the_new_keys():
+    """Older run.json files: moved keys, no method, no controller.module, and every built-in
+    observer's and controller's section (until 2026-11-27; today only the chosen one's)."""
     old = json.loads(json.dumps(Config().run_settings()))
+    every = Config().to_tree()
     old.pop("method")
+    old["controller"].pop("module")
+    old["controller"]["sinusoid"] = every["controller"]["sinusoid"]
+    old["observer"]["kmeans"] = every["observer"]["kmeans"]
+    old["observer"]["pca"] = every["observer"]["pca"]
     loop, observer = old["loop"], old["observer"]
     loop["replay"] = loop.pop("replay_buffer")
     loop["replay_capacity"] = loop.pop("buffer_capacity")
     loop.update(loop.pop("safeguards"))
     observer.update(observer.pop("vae"))
     observer.update(observer.pop("kmeans"))
-    assert upgrade(old) == json.loads(json.dumps(Config().run_settings()))
+    assert read_sections_only(upgrade(old)) == json.loads(json.dumps(Config().run_settings()))
     assert all(new.split(".")[0] == old_key.split(".")[0] for old_key, new in MOVED_KEYS.items())
 
 
 def test_every_old_spelling_leads_to_a_key_of_today():
     """`MOVED_KEYS` and the flat run.json layout's `FLAT_RUN_KEYS` point straight at today's
     keys (a setting or a section), never at another old spelling."""
-    from litl.config import FLAT_RUN_KEYS, current_key
+    from litl.old_settings import FLAT_RUN_KEYS, current_key
 
-    today = set(flatten(json.loads(json.dumps(Config().run_settings()))))
+    today = set(settings(Config()))
     sections = {key.rsplit(".", 1)[0] for key in today}
     for old_key, new in (*MOVED_KEYS.items(), *FLAT_RUN_KEYS.items()):
         assert new in today or new in sections, (old_key, new)
@@ -200,7 +211,9 @@ def test_every_error_a_user_can_meet_has_one_base():
 def test_an_older_run_json_gives_pca_the_field_it_read_then():
     """Until 2026-11-27 the PCA observer read the VAE's field (observer.vae.field)."""
     for method, field in (("paper", "velocity"), ("litl", "mass_weighted")):
-        old = json.loads(json.dumps(Config.for_method(method).run_settings()))
+        config = Config.for_method(method).replace(observer={"kind": "pca"})
+        old = json.loads(json.dumps(config.run_settings()))
         del old["observer"]["pca"]["field"]
-        assert upgrade(old) == json.loads(json.dumps(Config.for_method(method).run_settings()))
+        old["observer"]["vae"] = config.to_tree()["observer"]["vae"]  # recorded then
+        assert read_sections_only(upgrade(old)) == json.loads(json.dumps(config.run_settings()))
         assert upgrade(old)["observer"]["pca"]["field"] == field

@@ -41,13 +41,13 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
+from litl import controllers, observers
 from litl.config import Config, SettingsError
-from litl.loop import observers
-from litl.loop.observers import Observer
+from litl.controllers import ControllerContext
 from litl.loop.optimization import Optimization
 from litl.loop.retraining import Retraining
 from litl.loop.schedule import LearningSchedule
-from litl.loop.simulation import Simulation, make_controller
+from litl.loop.simulation import Simulation
 from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and helpers, where they were)
     MAX_STEP_BACKS,
     SKIP_REASONS,
@@ -62,6 +62,7 @@ from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and 
 from litl.models.controller import MLPController
 from litl.models.open_loop import SinusoidController
 from litl.models.replay_buffer import ReplayBuffer
+from litl.observers import Observer, ObserverContext
 from litl.robots.robot import Robot
 from litl.sim.memory import CheckpointPlan
 
@@ -132,13 +133,14 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
 
     `on_epoch(epoch, validation_loss)`, if given, is called from inside every learning phase
     after each epoch (numpy values, one per seed under vmap; `Learner.reporting_epochs`)."""
-    observers.check_kind(config)
     dtype = jnp.dtype(config.sim.dtype)
     if dtype == jnp.float64 and not jax.config.jax_enable_x64:  # type: ignore[attr-defined]  # a flag
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
     steps = config.sim.steps or robot.steps
     scene = robot.scene(dtype)
-    observer = observers.make(config.observer.kind, robot, config, scene.config, dtype)
+    observer = observers.make(
+        config.observer, robot, ObserverContext(scene.config, dtype, config.loop.learning)
+    )
     if on_epoch is not None and observer.learner is not None:
         observer = dataclasses.replace(observer, learner=observer.learner.reporting_epochs(on_epoch))
     schedule = LearningSchedule.of(config.loop.schedule, learns=observer.learner is not None)
@@ -166,7 +168,7 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         stride=stride,
         scene=scene,
         observer=observer,
-        controller=make_controller(robot, config.controller),
+        controller=controllers.make(config.controller, robot, ControllerContext(dtype)),
     )
     optimization = Optimization(simulation, config, schedule)
     retraining = Retraining(simulation, config)
@@ -182,7 +184,7 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         observer=observer,
         schedule=schedule,
         policy=simulation.policy,
-        controller=simulation.controller,
+        controller=simulation.controller.module,
         field=simulation.field,
         simulate=simulation.simulate,
         checkpoint_plan=functools.cache(functools.partial(_checkpoint_plan, simulation, optimization)),
@@ -220,7 +222,7 @@ def _init(simulation: Simulation, optimization: Optimization, seed: int) -> Loop
     key = jax.random.key(seed)
     key, controller_key, observer_key = jax.random.split(key, 3)
     features = jnp.zeros((observer.n_features,), dtype)
-    controller_params = simulation.controller.init(controller_key, features, time=jnp.zeros((), dtype))
+    controller_params = simulation.controller.module.init(controller_key, features, time=jnp.zeros((), dtype))
     observer_params = observer.init(observer_key, seed)
     observer_optimizer = (
         observer.learner.optimizer_init(observer_params) if observer.learner is not None else ()

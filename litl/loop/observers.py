@@ -3,6 +3,6 @@
 Kept so that `litl.loop.observers.register`, `make`, `Observer` and `Learner` keep working.
 """
 
-from litl.observers import Factory, Learner, Observer, check_kind, make, names, register
+from litl.observers import Factory, Learner, Observer, ObserverContext, check_kind, make, names, register
 
-__all__ = ["Factory", "Learner", "Observer", "check_kind", "make", "names", "register"]
+__all__ = ["Factory", "Learner", "Observer", "ObserverContext", "check_kind", "make", "names", "register"]

@@ -45,7 +45,7 @@ import orbax.checkpoint as ocp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from litl import backend, provenance
-from litl.config import Config, flatten, seeds_at_once, upgrade
+from litl.config import Config, flatten, read_sections_only, seeds_at_once
 from litl.errors import UserError
 from litl.loop.algorithm import SKIP_REASONS, Best, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
@@ -53,6 +53,7 @@ from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snap
 from litl.loop.progress import Progress, say
 from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
+from litl.old_settings import upgrade
 from litl.robots.robot import Robot
 from litl.stuck import seed_ends
 
@@ -274,7 +275,8 @@ def _claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) ->
             )
         # Settings recorded under keys that have moved since, and the observer's description,
         # which follows from them (what the report reads); the backend is not a setting.
-        found = {**found, "config": upgrade(found["config"]), "observer": wanted["observer"]}
+        recorded = read_sections_only(upgrade(found["config"]))
+        found = {**found, "config": recorded, "observer": wanted["observer"]}
         if "max_stretch" not in found:  # a run from before the strain limit: purely elastic
             found["max_stretch"] = None
             found["material"] = {**found.get("material", {}), "max_stretch": math.inf}

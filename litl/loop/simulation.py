@@ -14,25 +14,16 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from litl.config import Config, ControllerKind, FeatureGradient, GridField
-from litl.loop.observers import Observer
+from litl.config import Config
+from litl.controllers import Controller
 from litl.loop.state import LoopState
-from litl.models.controller import MLPController
-from litl.models.open_loop import SinusoidController
 from litl.models.window import Window
+from litl.observers import GridField, Observer
 from litl.robots.robot import Robot
 from litl.sim import make_rollout
 from litl.sim.fields import full_cell_mass, grid_velocity, mass_weighted_velocity
 from litl.sim.memory import default_budget_bytes
 from litl.sim.rollout import centroid
-
-
-def make_controller(robot: Robot, settings) -> MLPController | SinusoidController:
-    """The controller module `controller.kind` names (`litl.config.ControllerConfig`)."""
-    if settings.kind == ControllerKind.sinusoid:
-        return SinusoidController(robot.n_actuators, omega=settings.sinusoid.omega)
-    mlp = settings.mlp
-    return MLPController(robot.n_actuators, mlp.widths, period=mlp.period, feature_scale=mlp.feature_scale)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,7 +38,8 @@ class Simulation:
       stride: the snapshot stride (a snapshot of the grid field every `stride` steps).
       scene: the robot's `Scene` in `dtype` (config, body, design, initial state).
       observer: the observer (its features feed the controller at every step).
-      controller: the controller module.
+      controller: the controller (its module, and whether the task loss's gradient flows
+        through the features).
     """
 
     robot: Robot
@@ -57,7 +49,7 @@ class Simulation:
     stride: int
     scene: Any
     observer: Observer
-    controller: MLPController | SinusoidController
+    controller: Controller
 
     @property
     def window(self) -> Window:
@@ -70,10 +62,10 @@ class Simulation:
         """Actuation from the observer's features of the grid (and the clock)."""
         controller_params, observer_params = params
         features = self.observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
-        if self.config.controller.mlp.feature_gradient == FeatureGradient.stop:
+        if not self.controller.feature_gradient:
             features = jax.lax.stop_gradient(features)
         time = state.step.astype(self.dtype) * self.scene.config.dt
-        return self.controller.apply(controller_params, features.astype(self.dtype), time=time)
+        return self.controller.module.apply(controller_params, features.astype(self.dtype), time=time)
 
     @functools.cached_property
     def field(self):

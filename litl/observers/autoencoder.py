@@ -9,8 +9,11 @@ saliency animation.
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import pathlib
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import jax.numpy as jnp
@@ -21,14 +24,51 @@ from litl.models import vae
 from litl.models.replay_buffer import newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import LearningStats, make_learning_phase
-from litl.observers.interface import Learner, Observer
+from litl.observers.interface import GridField, Learner, Observer, ObserverContext
+from litl.settings import Settings
 
 SNAPSHOTS = 6  # the newest snapshots the pictures show
 
 
-def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> Observer:
+class Activation(enum.StrEnum):
+    elu = "elu"  # keeps units alive on the mostly empty field
+    relu = "relu"  # the paper's
+
+
+@dataclass(frozen=True)
+class AutoencoderSettings(Settings):
+    """The (V)AE observers' network and what it sees (`observer=vae` and `observer=ae`).
+
+    Attributes:
+      latent_dim: r, latent variables (the controller's features).
+      window: side (domain units) of the grid window it sees, centred on the robot's particle
+        centroid and rounded up to a multiple of 32 nodes (`litl.models.window`); None: the
+        whole grid (the paper's).
+      channels: widths of the five encoder convolutions.
+      activation: the network's activation (`Activation`; the paper's: relu).
+      field: what it sees of the grid and the replay buffer stores (`GridField`): node
+        velocities (the paper's), or velocities weighted by the node's mass relative to a full
+        cell, which fades the light boundary nodes whose velocity is mostly numerical noise.
+    """
+
+    latent_dim: int = dataclasses.field(default=8, metadata={"short": "r"})  # r in reports' labels
+    window: float | None = 0.5
+    channels: tuple[int, ...] = (8, 16, 32, 32, 64)
+    activation: Activation = Activation.elu
+    field: GridField = GridField.mass_weighted
+
+    def check(self) -> None:
+        self._positive_ints("latent_dim")
+        self._positive_numbers("window", optional=("window",))
+        if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1 for c in self.channels):
+            self._invalid("channels", "needs 5 positive integer widths")
+
+
+def autoencoder(
+    robot, settings: AutoencoderSettings, context: ObserverContext, variational: bool = True
+) -> Observer:
     """The (variational) autoencoder observer (`vae`, `ae`): a window around the robot."""
-    settings, learning = config.observer.vae, config.loop.learning
+    sim_config, dtype, learning = context.sim, context.dtype, context.learning
     window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
     model = vae.ConvAutoencoder(
         window.shape,
@@ -53,7 +93,6 @@ def autoencoder(robot, config, sim_config, dtype, variational: bool = True) -> O
         init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
         features=vae.make_observer(model, window),
         learner=learner,
-        settings="vae",
         pictures=pictures,
         field=settings.field,
     )
@@ -147,3 +186,8 @@ def pictures(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> lis
         )
     )
     return written
+
+
+def plain_autoencoder(robot, settings: AutoencoderSettings, context: ObserverContext) -> Observer:
+    """The plain (non-variational) autoencoder observer (`ae`, the ablation)."""
+    return autoencoder(robot, settings, context, variational=False)

@@ -3,7 +3,7 @@
 An `Observer` is to Algorithm 1 what an optax `GradientTransformation` is to an optimizer loop: a
 frozen bundle of functions that the algorithm calls without knowing which observer it is.
 
-    observer = litl.observers.make("vae", robot, config, sim_config, dtype)
+    observer = litl.observers.make(config.observer, robot, context)  # or make("vae", ...)
     params = observer.init(key, seed)                          # Θ
     features = observer.features(params, state, grid_velocity)  # (observer.n_features,)
 
@@ -11,20 +11,52 @@ A learned observer also has a `Learner`: the grid window its snapshots are cropp
 phase (returning its statistics: a mapping of named values), how those statistics are written,
 its single SGD step (the simultaneous ablation) and, where it has one, its reconstruction. Any
 observer may draw its own pictures of a finished run (`Observer.pictures`). Observers are made by
-factories registered by name (`register`); `observer.kind` (`litl.config.ObserverConfig`, the
-CLI's `observer=`) picks one. Each built-in observer is one module of `litl.observers`.
+factories registered by name with their own settings dataclass (`register`; `litl.registry`);
+`observer.kind` (`litl.config.ObserverConfig`, the CLI's `observer=`) picks one, and
+`observer.<name>.<key>` sets its settings. A factory is called as `factory(robot, settings,
+context)`: its settings section and an `ObserverContext` (the simulator's config, the dtype and
+the learning phase's settings), never the whole config. Each built-in observer is one module of
+`litl.observers`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import jax
+from litl.registry import Registry, registry
+from litl.settings import Settings, SettingsError
 
-from litl.config import GridField, SettingsError
-from litl.models.window import Window
+if TYPE_CHECKING:
+    import jax
+
+    from litl.config import LearningConfig
+    from litl.models.window import Window
+    from litl.sim import SimConfig
+
+
+class GridField(enum.StrEnum):
+    """What an observer reads of the grid, and its snapshots record (`Observer.field`)."""
+
+    velocity = "velocity"  # node momentum / mass, the paper's
+    mass_weighted = "mass_weighted"  # node velocity * mass / a full cell's mass (litl.sim.fields)
+
+
+@dataclasses.dataclass(frozen=True)
+class ObserverContext:
+    """What an observer's factory is given besides its own settings.
+
+    Attributes:
+      sim: the robot's simulator config (`litl.sim.SimConfig`: grid, dx, dim).
+      dtype: the run's float dtype.
+      learning: the learning phase's settings (`loop.learning`), for observers that learn.
+    """
+
+    sim: SimConfig
+    dtype: Any
+    learning: LearningConfig
 
 
 def every_value(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
@@ -87,9 +119,9 @@ class Observer:
       features: ``features(params, state, grid_velocity) -> (n_features,)``, jittable, used at
         every simulation step.
       learner: how it learns from snapshots; None for an observer fixed at init.
-      settings: the section of `litl.config.ObserverConfig` it reads (``"vae"`` for
-        ``observer.vae.*``), or None.
-      field: the grid field its features read and its snapshots record (`litl.config.GridField`:
+      settings: the section of the config it reads (``"vae"`` for ``observer.vae.*``), or None;
+        `make` sets it from the registration.
+      field: the grid field its features read and its snapshots record (`GridField`:
         plain node velocities, or mass-weighted ones, `litl.sim.fields`); None: it reads no grid
         field (the loop hands it plain velocities, and no learner needs snapshots of them).
       pictures: ``pictures(robot, algorithm, state, run_dir, stride) -> [paths]``: the pictures
@@ -119,44 +151,58 @@ class Observer:
         )
 
 
-# factory(robot, config, sim_config, dtype) -> Observer; config: the run's `litl.config.Config`
+# factory(robot, settings, context) -> Observer; settings: its own section (or None)
 Factory = Callable[..., Observer]
-_FACTORIES: dict[str, Factory] = {}
+OBSERVERS: Registry = registry("observer")
 
 
-def register(name: str, factory: Factory, replace: bool = False) -> None:
-    """Make `factory(robot, config, sim_config, dtype) -> Observer` selectable as `name`
-    (`Config.observer.kind`, CLI `observer=<name>` or `observer.kind=<name>`)."""
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"an observer's name must be a non-empty string, got {name!r}")
-    if name in _FACTORIES and not replace:
-        raise ValueError(f"an observer named {name!r} is already registered; pass replace=True")
-    if not callable(factory):
-        raise ValueError(f"factory must be callable, got {factory!r}")
-    _FACTORIES[name] = factory
+def register(
+    name: str,
+    factory: Factory,
+    settings: type[Settings] | None = None,
+    *,
+    section: str | None = None,
+    label: str | None = None,
+    replace: bool = False,
+) -> None:
+    """Make `factory(robot, settings, context) -> Observer` selectable as `name` (CLI
+    `observer=<name>` or `observer.kind=<name>`), with `settings`, its frozen settings dataclass
+    (CLI `observer.<name>.<key>=value`; in run.json as the observer's section), or None.
+
+    Args:
+      section: read another observer's section instead of its own (``ae`` reads ``vae``'s).
+      label: how reports name it (default: `name`); reports list observers in registration order.
+      replace: replace an observer already registered under `name` (else that is an error).
+    """
+    OBSERVERS.register(name, factory, settings, section=section, label=label, replace=replace)
 
 
 def names() -> tuple[str, ...]:
     """The registered observers' names."""
-    return tuple(_FACTORIES)
+    return OBSERVERS.names()
 
 
-def make(name: str, robot, config, sim_config, dtype) -> Observer:
-    """The observer `name` for `robot` under the loop `config`."""
-    if name not in _FACTORIES:
-        raise ValueError(f"unknown observer {name!r}; choose one of {names()}")
-    return _FACTORIES[name](robot, config, sim_config, dtype)
+def make(name_or_config, robot, context: ObserverContext) -> Observer:
+    """The observer for `robot`: `name_or_config` is an `litl.config.ObserverConfig` (its kind
+    with its section) or a registered name (with its settings' defaults)."""
+    if isinstance(name_or_config, str):
+        entry = OBSERVERS.get(name_or_config)
+        settings = entry.settings() if entry.settings is not None else None
+    else:
+        entry = OBSERVERS.get(name_or_config.kind)
+        settings = name_or_config.section
+    observer = entry.factory(robot, settings, context)
+    if not isinstance(observer, Observer):
+        raise SettingsError(
+            f"observer {entry.name!r}: its factory returned {type(observer).__name__}, not a "
+            f"litl.observers.Observer",
+            "observer.kind",
+        )
+    if observer.settings is None and entry.settings is not None:
+        observer = dataclasses.replace(observer, settings=entry.section)
+    return observer
 
 
 def check_kind(config) -> None:
     """Raise `SettingsError` unless `config.observer.kind` names a registered observer."""
-    kind, module = config.observer.kind, config.observer.module
-    if kind not in _FACTORIES:
-        hint = (
-            f"; observer.module={module!r} registered no observer of that name"
-            if module
-            else "; an observer of your own: observer.kind=<name> observer.module=<module that registers it>"
-        )
-        raise SettingsError(
-            f"observer.kind={kind!r}: unknown observer; choose one of {list(names())}{hint}", "observer.kind"
-        )
+    config.observer.check()

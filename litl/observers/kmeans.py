@@ -7,16 +7,29 @@ clusters' mean positions and velocities. It does not learn; its picture is the c
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
+from dataclasses import dataclass
 
-from litl.config import SettingsError
 from litl.models.kmeans import fit_kmeans, kmeans_features
-from litl.observers.interface import Observer
+from litl.observers.interface import Observer, ObserverContext
+from litl.settings import Settings, SettingsError
 
 
-def kmeans(robot, config, sim_config, dtype) -> Observer:
+@dataclass(frozen=True)
+class KMeansSettings(Settings):
+    """The k-means baseline (`observer=kmeans`). Attributes: clusters, k clusters of the rest
+    shape (features: each cluster's mean position and velocity)."""
+
+    clusters: int = dataclasses.field(default=6, metadata={"short": "k"})  # k in reports' labels
+
+    def check(self) -> None:
+        self._positive_ints("clusters")
+
+
+def kmeans(robot, settings: KMeansSettings, context: ObserverContext) -> Observer:
     """The k-means baseline: clusters of the rest configuration, fitted once per seed."""
-    clusters = config.observer.kmeans.clusters
+    clusters, sim_config, dtype = settings.clusters, context.sim, context.dtype
     if clusters > robot.layout.n_particles:
         raise SettingsError(
             f"observer.kmeans.clusters={clusters} exceeds the robot's {robot.layout.n_particles} particles",
@@ -27,7 +40,6 @@ def kmeans(robot, config, sim_config, dtype) -> Observer:
         n_features=2 * clusters * sim_config.dim,
         init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
         features=kmeans_features,
-        settings="kmeans",
         pictures=pictures,
     )
 

@@ -14,7 +14,9 @@ the loop's soft update moves Θ toward the refit, so the controller's inputs do 
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Self
 
 import jax
@@ -25,7 +27,8 @@ from flax import struct
 from litl.models.replay_buffer import ReplayBuffer, newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import random_split
-from litl.observers.interface import Learner, Observer
+from litl.observers.interface import GridField, Learner, Observer, ObserverContext
+from litl.settings import Settings, SettingsError
 
 SNAPSHOTS = 6  # the newest snapshots its picture reconstructs
 STD_FLOOR = 1e-6  # a component that never varied keeps unit scale instead of dividing by ~0
@@ -51,15 +54,34 @@ class PCAParams:
         def replace(self, **changes: Any) -> Self: ...
 
 
-def pca(robot, config, sim_config, dtype) -> Observer:
+@dataclass(frozen=True)
+class PCASettings(Settings):
+    """The PCA observer (`observer=pca`): a linear projection of the windowed grid field, fitted
+    on the replay buffer in every learning phase (`litl.observers.pca`).
+
+    Attributes:
+      components: r, principal components (the controller's features).
+      window: side (domain units) of the grid window it sees, as `observer.vae.window`.
+      field: what it sees of the grid and the replay buffer stores (`GridField`), as
+        `observer.vae.field` (runs from before this key read the VAE's).
+    """
+
+    components: int = dataclasses.field(default=8, metadata={"short": "r"})  # r in reports' labels
+    window: float | None = 0.5
+    field: GridField = GridField.mass_weighted
+
+    def check(self) -> None:
+        self._positive_ints("components")
+        self._positive_numbers("window", optional=("window",))
+
+
+def pca(robot, settings: PCASettings, context: ObserverContext) -> Observer:
     """The PCA observer: `observer.pca.components` features of a window around the robot."""
-    settings = config.observer.pca
+    sim_config, dtype = context.sim, context.dtype
     window = Window.around(sim_config.grid_shape, sim_config.dx, settings.window)
     size = int(np.prod(window.shape)) * sim_config.dim
     rank = settings.components
     if rank > size:
-        from litl.config import SettingsError
-
         raise SettingsError(
             f"observer.pca.components={rank} exceeds the {size} values of the windowed field",
             "observer.pca.components",
@@ -90,7 +112,6 @@ def pca(robot, config, sim_config, dtype) -> Observer:
         init=init,
         features=features,
         learner=learner,
-        settings="pca",
         pictures=pictures,
         field=settings.field,
     )

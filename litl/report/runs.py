@@ -15,8 +15,9 @@ import pathlib
 import re
 from typing import Any
 
-from litl.config import Config, LoopConfig, Method, current_key, flatten, recorded_settings
+from litl.config import Config, LoopConfig, Method, flatten
 from litl.errors import UserError
+from litl.old_settings import current_key, recorded_settings
 
 _METHOD = LoopConfig()
 # The ablation switches: named in a run's label only when the run departs from their default
@@ -36,16 +37,43 @@ LEGACY_READS = {
     "ae": ("observer.vae", "loop.learning"),
     "kmeans": ("observer.kmeans",),
 }
-OBSERVER_ORDER = ("vae", "ae", "kmeans", "none", "sinusoid")
 # Settings that never distinguish runs: seeds split over several directories are pooled.
 IGNORED = ("seed", "seeds", "sim.steps", "observer.kind", "controller.kind")
-# How a setting that differs between runs is named in their labels (others by their key).
-SHORT_NAMES = (
-    ("observer.vae.latent_dim", "r"),
-    ("observer.kmeans.clusters", "k"),
+# How a core setting that differs between runs is named in their labels (an observer's or a
+# controller's: its field's ``short`` metadata; others by their key).
+CORE_SHORT_NAMES = (
     ("controller.learning_rate", "lr"),
     ("loop.design_learning_rate", "design lr"),
 )
+
+
+def short_names() -> dict[str, str]:
+    """Short names of settings in run labels: the core's, and each registered observer's and
+    controller's fields with ``short`` metadata (``observer.vae.latent_dim``: r)."""
+    from litl.registry import registry
+
+    names = dict(CORE_SHORT_NAMES)
+    for part in ("observer", "controller"):
+        for section, settings in registry(part).sections().items():
+            for f in dataclasses.fields(settings):
+                if "short" in f.metadata:
+                    names[f"{part}.{section}.{f.name}"] = f.metadata["short"]
+    return names
+
+
+def head_rank(head: str) -> tuple[int, str]:
+    """Where reports list runs headed by `head`: observers, then open-loop controllers, each in
+    registration order (`litl.registry`); unregistered names last."""
+    from litl.registry import registry
+
+    observers, controllers = registry("observer"), registry("controller")
+    entry = observers.find(head)
+    if entry is not None:
+        return entry.order, entry.label
+    entry = controllers.find(head)
+    if entry is not None:
+        return len(observers.names()) + entry.order, entry.label
+    return len(observers.names()) + len(controllers.names()), head
 
 
 def method_defaults(method: str) -> dict[str, Any]:
@@ -106,7 +134,11 @@ class Run:
     def head(self) -> str:
         """What feeds the controller, heading the run's label: the observer, or an open-loop
         controller's name (``"sinusoid"``)."""
-        return self.observer if self.controller == "mlp" else self.controller
+        from litl.registry import registry
+
+        entry = registry("controller").find(self.controller)
+        open_loop = entry.traits.get("open_loop", False) if entry is not None else self.controller != "mlp"
+        return self.controller if open_loop else self.observer
 
     @property
     def learned(self) -> bool:
@@ -292,7 +324,7 @@ def labels(runs: list[Run]) -> list[str]:
     by_robot: dict[str, list[int]] = {}
     for index, run in enumerate(runs):
         by_robot.setdefault(run.robot, []).append(index)
-    names = dict(SHORT_NAMES)
+    names = short_names()
     result = [""] * len(runs)
     for indices in by_robot.values():
         settings = [_comparable(runs[i]) for i in indices]
@@ -310,7 +342,7 @@ def labels(runs: list[Run]) -> list[str]:
             run = runs[i]
             # Where runs differ in their method, a key at its method's value is the method's.
             start = method_defaults(s["method"]) if "method" in varying else {}
-            head = [run.head] + [
+            head = [head_rank(run.head)[1]] + [
                 f"{names.get(key, key)}={_format(s[key], key)}"
                 for key in varying
                 if _relevant(key, run) and key in s and (key not in start or start[key] != s[key])
@@ -356,8 +388,6 @@ def group_runs(runs: list[Run]) -> list[Group]:
 
     def order(key: tuple[str, str]) -> tuple[str, int, str]:
         robot, label = key
-        observer = pooled[key][0].head
-        rank = OBSERVER_ORDER.index(observer) if observer in OBSERVER_ORDER else len(OBSERVER_ORDER)
-        return robot, rank, label
+        return robot, head_rank(pooled[key][0].head)[0], label
 
     return [Group(robot, label, tuple(pooled[(robot, label)])) for robot, label in sorted(pooled, key=order)]

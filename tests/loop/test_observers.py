@@ -10,6 +10,7 @@ import sys
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 
 from litl.config import SettingsError
@@ -37,7 +38,8 @@ def test_builtin_observers_through_the_interface():
         ("pca", 8, True),
         ("none", 0, False),
     ):
-        observer = observers.make(name, robot, tiny_config(observer={"kind": name}), config, jnp.float32)
+        context = observers.ObserverContext(config, jnp.float32, tiny_config().loop.learning)
+        observer = observers.make(tiny_config(observer={"kind": name}).observer, robot, context)
         assert (observer.n_features, observer.learned) == (n_features, learned), name
         params = observer.init(jax.random.key(0), 0)
         state = robot.initial_state()
@@ -46,8 +48,8 @@ def test_builtin_observers_through_the_interface():
 
 
 def test_each_observer_says_which_grid_field_it_reads_and_the_loop_follows_it():
-    from litl.config import GridField
     from litl.loop import make_algorithm
+    from litl.observers import GridField
     from litl.sim.fields import grid_velocity
 
     robot = tiny_robot()
@@ -57,19 +59,25 @@ def test_each_observer_says_which_grid_field_it_reads_and_the_loop_follows_it():
     expected = {"vae": GridField.mass_weighted, "ae": GridField.mass_weighted, "pca": GridField.velocity}
     for name in ("vae", "ae", "pca", "kmeans", "none"):
         config = tiny_config(observer={"kind": name, **changes})
-        observer = observers.make(name, robot, config, robot.config, jnp.float32)
+        context = observers.ObserverContext(robot.config, jnp.float32, config.loop.learning)
+        observer = observers.make(config.observer, robot, context)
         assert observer.field == expected.get(name), name
         plain = make_algorithm(robot, config).field is grid_velocity
         assert plain == (expected.get(name) != GridField.mass_weighted), name
 
 
 def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
-    with pytest.raises(ValueError, match="already registered"):
-        observers.register("vae", lambda *args: None)
-    with pytest.raises(ValueError, match="non-empty string"):
-        observers.register("", lambda *args: None)
+    with pytest.raises(SettingsError, match="'vae' is already registered .*replace=True"):
+        observers.register("vae", lambda robot, settings, context: None)
+    with pytest.raises(SettingsError, match="must be an identifier"):
+        observers.register("", lambda robot, settings, context: None)
+    with pytest.raises(SettingsError, match="settings must be a frozen dataclass"):
+        observers.register("odd", lambda robot, settings, context: None, settings=dict)
+    with pytest.raises(SettingsError, match=r"factory\(robot, settings, context\) since"):
+        observers.register("old", lambda robot, config, sim_config, dtype: None)  # the old signature
+    assert "odd" not in observers.names() and "old" not in observers.names()
     with pytest.raises(SettingsError, match="observer.kind='vea': unknown observer; choose one of .*kmeans"):
-        observers.check_kind(tiny_config(observer={"kind": "vea"}))
+        tiny_config(observer={"kind": "vea"})
 
 
 def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
@@ -81,9 +89,9 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
             sys.executable,
             "-m",
             "litl",
-            "observer.kind=random_projection",
+            "observer=random_projection",  # an option of the group once its module is imported
             "observer.module=my_observers",
-            "observer.vae.latent_dim=3",
+            "observer.random_projection.features=3",
             "+scale=smoke",
             "loop.episodes=1",
             "output.progress=false",
@@ -97,8 +105,12 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     settings = json.loads((run_dir / "run.json").read_text())
-    assert settings["observer"] == {"learned": False, "reads": ["observer.vae"]}
-    assert settings["config"]["observer"]["kind"] == "random_projection"
+    assert settings["observer"] == {"learned": False, "reads": ["observer.random_projection"]}
+    assert settings["config"]["observer"] == {
+        "kind": "random_projection",
+        "module": "my_observers",
+        "random_projection": {"features": 3},  # its own section, and only it
+    }
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     # It does not learn: no statistics of its own in the records (the loop's update_accepted only).
     assert len(records) == 2 and all("recon_loss_val" not in r and r["update_accepted"] for r in records)
@@ -116,13 +128,115 @@ def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     assert "random_projection" in (run_dir / "summary.md").read_text()
 
 
-def mean_speed_observer(robot, config, sim_config, dtype):
+@pytest.fixture
+def user_module(tmp_path, monkeypatch):
+    """The guide's module importable from tmp_path; the registries as they were afterwards."""
+    from litl.controllers import CONTROLLERS
+    from litl.observers import OBSERVERS
+
+    (tmp_path / "my_observers.py").write_text(PROJECTION_MODULE)
+    (tmp_path / "registers_nothing.py").write_text("X = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for registry in (OBSERVERS, CONTROLLERS):
+        monkeypatch.setattr(registry, "_entries", dict(registry._entries))
+    yield
+    for name in ("my_observers", "registers_nothing"):
+        sys.modules.pop(name, None)
+
+
+def test_a_users_observer_has_its_own_checked_settings_from_the_command_line(user_module):
+    from litl.app import compose
+
+    base = ["observer=random_projection", "observer.module=my_observers"]
+    config = compose([*base, "observer.random_projection.features=5"])
+    assert config.observer.kind == "random_projection" and config.observer.random_projection.features == 5
+    assert config.observer.section == config.observer.random_projection
+    assert config.run_settings()["observer"] == {
+        "kind": "random_projection",
+        "module": "my_observers",
+        "random_projection": {"features": 5},
+    }
+    # The same from Python, and the built-ins' sections are still there (presets set them).
+    same = tiny_config(observer={"kind": "random_projection", "random_projection": {"features": 5}})
+    assert same.observer.random_projection == config.observer.random_projection
+    assert same.observer.vae.latent_dim == 4
+    # Bad input: an unknown key names the observer and its valid keys; a wrong type and a value
+    # its own check refuses name the key in full.
+    with pytest.raises(SettingsError, match=r"(?s)width.*random_projection.*\['features'\]"):
+        compose([*base, "observer.random_projection.width=3"])
+    with pytest.raises(SettingsError, match="observer.random_projection.features"):
+        compose([*base, "observer.random_projection.features=abc"])
+    with pytest.raises(
+        SettingsError, match="^observer.random_projection.features=0: must be a positive integer"
+    ):
+        compose([*base, "observer.random_projection.features=0"])
+    with pytest.raises(
+        SettingsError, match="observer.random_projection.features='3': must be a positive integer"
+    ):
+        tiny_config(observer={"kind": "random_projection", "random_projection": {"features": "3"}})
+    with pytest.raises(SettingsError, match=r"unknown setting\(s\) \['observer.random_projection.width'\]"):
+        tiny_config(observer={"random_projection": {"width": 3}})
+    # A module that registers nothing of that name, and one that cannot be imported.
+    with pytest.raises(SettingsError, match="observer.module='registers_nothing' registered no observer"):
+        compose(["observer.kind=random_projection2", "observer.module=registers_nothing"])
+    with pytest.raises(SettingsError, match="observer.module='no_such_module' could not be imported"):
+        compose(["observer.module=no_such_module"])
+
+
+def test_a_registered_controller_with_its_own_settings_runs_the_loop(user_module, tmp_path):
+    """Controllers register like observers: a user's open-loop controller with one setting."""
+    import dataclasses
+
+    from litl import controllers
+    from litl.app import compose
+    from litl.loop.run import run
+    from litl.models.open_loop import SinusoidController
+    from litl.settings import Settings
+
+    @dataclasses.dataclass(frozen=True)
+    class SlowWave(Settings):
+        omega: float = 5.0
+
+        def check(self):
+            self._positive_numbers("omega")
+
+    def slow_wave(robot, settings, context):
+        return controllers.Controller(SinusoidController(robot.n_actuators, omega=settings.omega))
+
+    controllers.register("slow_wave", slow_wave, SlowWave, open_loop=True)
+    config = compose(["controller.kind=slow_wave", "controller.slow_wave.omega=2.5", "observer=none"])
+    assert config.controller.slow_wave.omega == 2.5
+    with pytest.raises(SettingsError, match="the slow_wave controller is open loop"):
+        compose(["controller.kind=slow_wave"])
+    with pytest.raises(SettingsError, match="controller.slow_wave.omega=-1.0: must be a positive number"):
+        compose(["controller.kind=slow_wave", "controller.slow_wave.omega=-1", "observer=none"])
+    tiny = tiny_config(
+        observer={"kind": "none"}, controller={"kind": "slow_wave", "slow_wave": {"omega": 2.5}}
+    )
+    result = run(
+        tiny_robot(),
+        dataclasses.replace(tiny, loop=dataclasses.replace(tiny.loop, episodes=1)),
+        tmp_path,
+        progress=False,
+    )
+    recorded = json.loads((tmp_path / "run.json").read_text())["config"]["controller"]
+    assert recorded == {
+        "kind": "slow_wave",
+        "module": None,
+        "learning_rate": tiny.controller.learning_rate,
+        "slow_wave": {"omega": 2.5},
+    }
+    assert all(np.isfinite(r["task_loss"]) for r in result.metrics)
+
+
+def mean_speed_observer(robot, settings, context):
     """A toy learning observer, defined here and registered from the test: its one feature is the
     window's mean speed over a scale it learns (each phase: the buffer's mean speed)."""
     from litl.models.replay_buffer import valid_mask
     from litl.models.window import Window
     from litl.observers import Learner, Observer
 
+    sim_config, dtype = context.sim, context.dtype
     window = Window.around(sim_config.grid_shape, sim_config.dx, 0.5)
 
     def features(scale, state, grid_velocity):

@@ -6,11 +6,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from litl.config import PCAConfig, SettingsError
+from litl.config import SettingsError
 from litl.loop import make_algorithm
 from litl.models.replay_buffer import ReplayBuffer, add
-from litl.observers import make
-from litl.observers.pca import PCAParams, fit, project, reconstruct
+from litl.observers import ObserverContext, make
+from litl.observers.pca import PCAParams, PCASettings, fit, project, reconstruct
 from tests.loop.tiny import tiny_config, tiny_robot
 
 SHAPE, DIM = (8, 8), 2
@@ -84,11 +84,11 @@ def test_fewer_than_two_snapshots_leave_the_parameters_as_they_were():
 
 def test_bad_settings_are_clear_errors():
     with pytest.raises(SettingsError, match="observer.pca.components"):
-        PCAConfig(components=0)
+        PCASettings(components=0)
     robot = tiny_robot()
     config = tiny_config(observer={"kind": "pca", "pca": {"components": 10**6}})
     with pytest.raises(SettingsError, match=r"observer.pca.components=1000000 exceeds the \d+ values"):
-        make("pca", robot, config, robot.config, jnp.float32)
+        make(config.observer, robot, ObserverContext(robot.config, jnp.float32, config.loop.learning))
     # It learns in phases only: the simultaneous ablation needs a single SGD step.
     with pytest.raises(SettingsError, match="learns in phases only.*loop.schedule=simultaneous"):
         make_algorithm(robot, tiny_config(observer={"kind": "pca"}, loop={"schedule": "simultaneous"}))

@@ -1,0 +1,145 @@
+"""Old spellings of settings, translated where old command lines and old run.json files are read.
+
+Two tables, because they are two namespaces: dotted keys that moved since the config model was
+written (`MOVED_KEYS`; still accepted, with a warning, on the command line by
+`translate_overrides`, in `Settings.replace` by `moved_changes`, and in older run.json files), and
+the flat layout of run.json files from before it (`FLAT_RUN_KEYS`, read by `recorded_settings`).
+`upgrade` brings a recorded run's settings to today's layout: the command line
+(`litl.app.compose`), resuming (`litl.loop.run`), replaying (`litl.replay`) and reports
+(`litl.report.runs`) are the readers.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+from typing import Any
+
+from litl.trees import flatten, unflatten
+
+MOVED_KEYS = {
+    "observer.latent_dim": "observer.vae.latent_dim",
+    "observer.window": "observer.vae.window",
+    "observer.channels": "observer.vae.channels",
+    "observer.activation": "observer.vae.activation",
+    "observer.field": "observer.vae.field",
+    "observer.clusters": "observer.kmeans.clusters",
+    "controller.widths": "controller.mlp.widths",
+    "controller.period": "controller.mlp.period",
+    "controller.feature_scale": "controller.mlp.feature_scale",
+    "controller.feature_gradient": "controller.mlp.feature_gradient",
+    "controller.omega": "controller.sinusoid.omega",
+    "loop.gradient_clip": "loop.safeguards.gradient_clip",
+    "loop.update_tolerance": "loop.safeguards.update_tolerance",
+    "loop.step_back_tolerance": "loop.safeguards.step_back_tolerance",
+    "loop.final_learning_rate_fraction": "loop.safeguards.final_learning_rate_fraction",
+    "loop.replay": "loop.replay_buffer",
+    "loop.replay_capacity": "loop.buffer_capacity",
+}
+
+
+# run.json files written before the config model (before 2026-11-23) kept the run's settings in
+# one flat "loop" object; where each of its keys lives now. They are no keys of today's command
+# line (`observer=` there picks a group, not `observer.kind`), so only `recorded_settings` reads them.
+FLAT_RUN_KEYS = {
+    "episodes": "loop.episodes",
+    "iterations": "loop.iterations",
+    "steps": "sim.steps",
+    "dtype": "sim.dtype",
+    "observer": "observer.kind",
+    "latent_dim": "observer.vae.latent_dim",
+    "window": "observer.vae.window",
+    "channels": "observer.vae.channels",
+    "activation": "observer.vae.activation",
+    "clusters": "observer.kmeans.clusters",
+    "controller": "controller.kind",
+    "controller_widths": "controller.mlp.widths",
+    "controller_omega": "controller.sinusoid.omega",
+    "controller_period": "controller.mlp.period",
+    "feature_gradient": "controller.mlp.feature_gradient",
+    "learning_rate": "controller.learning_rate",
+    "design_learning_rate": "loop.design_learning_rate",
+    "gradient_clip": "loop.safeguards.gradient_clip",
+    "snapshot_stride": "loop.snapshot_stride",
+    "replay_capacity": "loop.buffer_capacity",
+    "alpha": "loop.alpha",
+    "replay": "loop.replay_buffer",
+    "codesign": "loop.codesign",
+    "learning": "loop.learning",
+    "seeds": "seeds",
+    "seed": "seed",
+}
+
+
+def current_key(key: str) -> str:
+    """Where a setting lives now, under any spelling a run.json may hold: a moved dotted key
+    (`MOVED_KEYS`), a key of the flat layout (`FLAT_RUN_KEYS`) or today's."""
+    return FLAT_RUN_KEYS.get(key) or MOVED_KEYS.get(key, key)
+
+
+def moved_message(old: str) -> str:
+    return f"{old} is now {MOVED_KEYS[old]}; the old spelling still works for now, but will not for ever"
+
+
+def moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
+    """`changes` to the section at `section` with moved keys renamed (a warning each): at the
+    top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``."""
+    prefix = f"{section}." if section else ""
+    flat = flatten(changes, prefix)
+    if not any(key in MOVED_KEYS for key in flat):
+        return changes
+    for key in flat:
+        if key in MOVED_KEYS:
+            warnings.warn(moved_message(key), FutureWarning, stacklevel=4)
+    return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
+
+
+def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]:
+    """Command-line overrides with moved keys renamed (`MOVED_KEYS`), and a message for each:
+    ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``."""
+    translated, messages = [], []
+    for override in overrides:
+        prefix = override[:1] if override[:1] in "+~" else ""
+        key, equals, value = override[len(prefix) :].partition("=")
+        if key in MOVED_KEYS:
+            messages.append(moved_message(key))
+            override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
+        translated.append(override)
+    return translated, messages
+
+
+def _today(flat: dict[str, Any]) -> dict[str, Any]:
+    """Dotted settings of any date with today's keys: moved keys renamed, the method of a run
+    recorded before methods were named (litl's), the PCA observer's field (it read the VAE's
+    until it had its own, 2026-11-27)."""
+    flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
+    flat.setdefault("method", "litl")
+    flat.setdefault("controller.module", None)  # controllers of one's own came on 2026-11-27
+    if "observer.pca.components" in flat:
+        flat.setdefault("observer.pca.field", flat.get("observer.vae.field", "mass_weighted"))
+    return flat
+
+
+def recorded_settings(saved: dict[str, Any]) -> dict[str, Any]:
+    """A parsed run.json's settings by today's dotted key (``"loop.alpha"``), as
+    `Config.run_settings` names them; older layouts translated (`FLAT_RUN_KEYS`). Older runs
+    keep every observer's section they recorded (`Run.observer_reads` says which one counts)."""
+    if isinstance(saved.get("config"), dict):
+        flat = flatten(saved["config"])
+    else:
+        legacy: dict[str, Any] = dict(saved.get("loop", {}))
+        one_shot = legacy.pop("one_shot", False)
+        simultaneous = legacy.pop("simultaneous", False)
+        schedule = "one_shot" if one_shot else "simultaneous" if simultaneous else "alternating"
+        moved = {FLAT_RUN_KEYS.get(key, key): value for key, value in legacy.items()}
+        flat = {**flatten(moved), "loop.schedule": schedule}
+    return _today(flat)
+
+
+def upgrade(tree: dict[str, Any]) -> dict[str, Any]:
+    """A run's nested settings (`run.json`'s "config", or a composed config's) in today's
+    layout (`recorded_settings`' translation); a section added since the run ran with its
+    defaults, which building the `Config` fills in. (Older runs recorded every built-in
+    observer's and controller's section: `litl.config.read_sections_only` keeps the chosen
+    one's, as run.json records them today.)"""
+    return unflatten(_today(flatten(tree)))
