@@ -24,6 +24,7 @@ from litl.sim import (
     check_actuation,
     check_time_step,
 )
+from litl.sim.colliders import check_clear
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,6 +68,10 @@ class Robot:
         if not isinstance(self.steps, int) or self.steps <= 0:
             raise SimConfigError(f"steps must be a positive integer, got {self.steps!r}")
         check_fits(self.layout, self.config, self.name)
+        assert self.config.boundary is not None  # SimConfig sets the default box
+        check_clear(
+            self.config.boundary.colliders, self.layout.positions, self.config.dx, f"robot {self.name!r}"
+        )
         if self.task is not None:
             make_task_loss(self.task, self.layout)  # validates groups and targets
         # The stiffest design allowed must still be stable at this dt, and the softest must hold

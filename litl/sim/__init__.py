@@ -5,6 +5,7 @@ actuator strengths) and an initial `SimState`; then either take single steps wit
 run whole rollouts with `make_rollout` (pure, jittable, differentiable) or `simulate` (checked).
 """
 
+from litl.sim.colliders import Collider
 from litl.sim.config import Boundary, ConfigError, SimConfig, SimConfigError, Wall
 from litl.sim.rollout import Health, Trajectory, centroid, make_rollout
 from litl.sim.safety import (
@@ -22,6 +23,7 @@ from litl.sim.step import make_step, rasterize
 __all__ = [
     "Body",
     "Boundary",
+    "Collider",
     "ConfigError",
     "Design",
     "Grid",

@@ -1,10 +1,11 @@
-"""Grid boundary conditions: walls (sticky, slip, Coulomb friction) and pinned grid regions."""
+"""Grid boundary conditions: walls (sticky, slip, Coulomb friction), colliders and pinned regions."""
 
 from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
 
+from litl.sim.colliders import apply_colliders
 from litl.sim.config import SimConfig
 
 
@@ -40,10 +41,11 @@ def _safe_norm(components):
 
 
 def apply_boundary(config: SimConfig, velocity):
-    """Enforce walls and pinned regions on grid velocity components.
+    """Enforce walls, colliders and pinned regions on grid velocity components.
 
     Faces are applied in order (axis 0 low, axis 0 high, axis 1 low, ...). On a face's layer, a wall
-    acts only on velocities moving into it (outward normal component > 0).
+    acts only on velocities moving into it (outward normal component > 0). Then the colliders
+    (`litl.sim.colliders`), then the pinned boxes.
 
     Args:
       config: supplies grid shape and boundary.
@@ -72,6 +74,7 @@ def apply_boundary(config: SimConfig, velocity):
             factor = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
             velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0) for a, v in enumerate(velocity)]
         velocity[axis] = jnp.where(hit, 0.0, normal_speed)
+    velocity = apply_colliders(boundary.colliders, config.grid_shape, config.dx, velocity)
     if boundary.pinned_boxes:
         pinned = jnp.asarray(pinned_node_mask(config))
         velocity = [jnp.where(pinned, 0.0, v) for v in velocity]

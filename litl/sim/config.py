@@ -89,11 +89,15 @@ class Boundary:
       thickness: wall thickness in grid cells (>= 1).
       pinned_boxes: boxes ``((lo_0, lo_1, ...), (hi_0, hi_1, ...))`` in domain coordinates whose grid
         nodes have their velocity set to zero every step (e.g. the fixed base of an arm).
+      colliders: solid shapes inside the box, each with its own contact
+        (`litl.sim.colliders.Collider`: a half plane at any angle, a box, a ball, a height
+        field, a union), applied after the walls, in order.
     """
 
     walls: tuple[Wall, ...]
     thickness: int = 3
     pinned_boxes: tuple[tuple[tuple[float, ...], tuple[float, ...]], ...] = ()
+    colliders: tuple = ()
 
     @classmethod
     def box(
@@ -103,17 +107,27 @@ class Boundary:
         sides: Wall | WallKind = "sticky",
         thickness: int = 3,
         pinned_boxes: Iterable[Corners] = (),
+        colliders: Iterable = (),
     ) -> Boundary:
-        """A closed box: `floor` on the low face of axis 1, `sides` on every other face."""
+        """A closed box: `floor` on the low face of axis 1, `sides` on every other face, and
+        `colliders` inside it."""
         floor = floor if isinstance(floor, Wall) else Wall(floor)
         sides = sides if isinstance(sides, Wall) else Wall(sides)
         walls = [sides] * (2 * dim)
         walls[2] = floor
-        return cls(walls=tuple(walls), thickness=thickness, pinned_boxes=_as_boxes(pinned_boxes))
+        return cls(
+            walls=tuple(walls),
+            thickness=thickness,
+            pinned_boxes=_as_boxes(pinned_boxes),
+            colliders=tuple(colliders),
+        )
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "walls", tuple(self.walls))
         object.__setattr__(self, "pinned_boxes", _as_boxes(self.pinned_boxes))
+        object.__setattr__(self, "colliders", tuple(self.colliders))
+        if not all(hasattr(c, "shape") and hasattr(c, "contact") for c in self.colliders):
+            raise SimConfigError("Boundary.colliders must be litl.sim.colliders.Collider objects")
         if not all(isinstance(w, Wall) for w in self.walls):
             raise SimConfigError("Boundary.walls must be Wall objects, e.g. Wall('sticky')")
         if not isinstance(self.thickness, int) or self.thickness < 1:
@@ -216,6 +230,9 @@ class SimConfig:
             raise SimConfigError(
                 f"wall thickness {boundary.thickness} leaves no room in grid {self.grid_shape}"
             )
+        for collider in boundary.colliders:
+            if collider.dim != dim:
+                raise SimConfigError(f"a {collider.dim}D collider in a {dim}D grid: {collider}")
         for lo, hi in boundary.pinned_boxes:
             if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi, strict=True)):
                 raise SimConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
