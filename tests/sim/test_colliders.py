@@ -55,7 +55,7 @@ def test_each_shape_gives_its_signed_distance_and_outward_normal():
 
 def _hit(contact, v, normal=(-1.0, 1.0)):
     """One node inside a 45° slope's solid, moving with `v`: its velocity after the contact."""
-    collider = Collider(HalfPlane((0.5, 0.5), normal), contact)
+    collider = Collider(HalfPlane((0.5, 0.5), normal), contact, band=0)
     velocity = [jnp.full((8, 8), v[0]), jnp.full((8, 8), v[1])]
     out = apply_colliders([collider], (8, 8), 1 / 8, velocity)
     inside, outside = (5, 1), (1, 6)
@@ -81,8 +81,8 @@ def test_the_contact_projects_only_velocity_into_the_solid():
 
 @pytest.mark.parametrize("contact", [Wall("sticky"), Wall("slip"), Wall("friction", 0.4)])
 def test_a_floor_collider_acts_as_the_floor_wall(contact):
-    """The floor wall (3 nodes) and an open floor with a half plane through the third node give
-    the same rollout: a wall is a collider whose shape is the grid's outer layer."""
+    """The floor wall (3 nodes) and an open floor with a half plane one cell (its band) below the
+    third node give the same rollout: a wall is a collider whose shape is the grid's outer layer."""
 
     def final(boundary):
         config, body, design, state = block(n_grid=24, lower=0.2, velocity=(0.5, -1.0), boundary=boundary)
@@ -90,7 +90,7 @@ def test_a_floor_collider_acts_as_the_floor_wall(contact):
         return rollout(None, design, state)[0]
 
     walls = final(Boundary.box(2, floor=contact, sides="slip"))
-    floor = Collider(HalfPlane((0.0, 2 / 24), (0.0, 1.0)), contact)
+    floor = Collider(HalfPlane((0.0, 1 / 24), (0.0, 1.0)), contact)
     open_floor = Boundary(walls=(Wall("slip"), Wall("slip"), Wall("open"), Wall("slip")), colliders=(floor,))
     chex.assert_trees_all_close(walls, final(open_floor), atol=1e-6, rtol=1e-6)
 
@@ -144,10 +144,15 @@ def _slide(theta_deg, mu, n_grid=32, seconds=0.25, youngs=2000.0, size=0.15):
     return float(np.linalg.lstsq(fit, down[window], rcond=None)[0][2])
 
 
-@pytest.mark.parametrize(("theta", "mu"), [(30, 0.0), (30, 0.2)])
+@pytest.mark.parametrize(("theta", "mu"), [(30, 0.0), (30, 0.2), (30, 0.4), (20, 0.2)])
 def test_a_block_slides_down_a_slope_at_g_sin_minus_mu_cos(theta, mu):
     expected = 9.8 * (math.sin(math.radians(theta)) - mu * math.cos(math.radians(theta)))
     assert _slide(theta, mu) == pytest.approx(expected, rel=0.05)
+
+
+def test_a_block_sticks_where_tan_theta_is_below_mu():
+    """30° with μ = 0.8: it stays (its fitted acceleration under 2% of the frictionless 4.9)."""
+    assert abs(_slide(30, 0.8)) < 0.02 * 9.8 * math.sin(math.radians(30))
 
 
 def test_bad_colliders_are_refused_naming_what_is_wrong():
@@ -163,6 +168,8 @@ def test_bad_colliders_are_refused_naming_what_is_wrong():
         Collider(HalfPlane((0.0, 0.1), (0.0, 1.0)), Wall("open"))
     with pytest.raises(SimConfigError, match=">= 0"):
         Collider(HalfPlane((0.0, 0.1), (0.0, 1.0)), Wall("friction", -0.5))
+    with pytest.raises(SimConfigError, match="band must be a number of cells >= 0"):
+        Collider(HalfPlane((0.0, 0.1), (0.0, 1.0)), band=-1)
     with pytest.raises(SimConfigError, match="a 3D collider in a 2D grid"):
         SimConfig(
             (16, 16),
