@@ -12,9 +12,9 @@ that no contact holds, and a block on a 30° slope with μ = 0.8 (tan θ < μ) s
 instead of sticking; with a band of one cell it stays (tests/sim/test_colliders.py).
 
 Colliders are static: their distance and normal at the grid nodes are computed once, in numpy
-(float64), when the step is built, so a collider costs the same as a wall. They live in `Boundary.colliders` and act after the box's
-walls (`litl.sim.boundary`); the walls themselves stay the box's axis-aligned layers, so scenes
-without colliders compute exactly what they did before.
+(float64), when the step is built, so a collider costs the same as a wall. They live in
+`Boundary.colliders` and act after the box's walls (`litl.sim.boundary`); the walls themselves
+stay the box's axis-aligned layers, so scenes without colliders compute exactly what they did.
 
 Shapes (2D and 3D; axis 1 is up):
 
