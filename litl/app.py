@@ -32,6 +32,7 @@ from litl.old_settings import translate_overrides
 from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
+from litl.robots.worlds import with_world
 from litl.stuck import seed_ends, shown
 
 
@@ -97,7 +98,8 @@ def section_keys(cause: BaseException | None) -> str:
 
 
 def build_robot(config: Config) -> Robot:
-    """The configured robot at the configured resolution, with the configured task."""
+    """The configured robot at the configured resolution, with the configured task, in the
+    configured world."""
     name, module = config.robot.name, config.robot.module
     import_user_module("robot.module", module, "litl.robots.register")
     if name not in litl.robots.names():
@@ -119,7 +121,7 @@ def build_robot(config: Config) -> Robot:
     if kind != TaskKind.default:
         measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
-    return robot
+    return with_world(robot, config.world)
 
 
 def _with_material(robot: Robot, material: MaterialConfig) -> Robot:

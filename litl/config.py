@@ -183,6 +183,58 @@ class RobotConfig(Settings):
     material: MaterialConfig = field(default_factory=MaterialConfig)
 
 
+class WorldKind(enum.StrEnum):
+    """The ground ahead of the robot (`litl.robots.worlds`)."""
+
+    flat = "flat"  # the empty box
+    slope = "slope"
+    steps = "steps"
+    bumps = "bumps"
+
+
+class ContactKind(enum.StrEnum):
+    sticky = "sticky"
+    slip = "slip"
+    friction = "friction"
+
+
+@dataclass(frozen=True)
+class WorldConfig(Settings):
+    """The world the robot walks in (`world=` on the command line; `litl.robots.worlds`): terrain
+    ahead of it, as colliders (`litl.sim.colliders`), starting `gap` cells past its front.
+
+    Attributes:
+      kind: flat (the empty box), slope, steps or bumps (`WorldKind`).
+      angle: the slope's angle, degrees in (0, 45].
+      step_height, step_length: the stairs' risers and treads (domain units).
+      amplitude, wavelength: the bumps' largest height and spacing (domain units).
+      seed: the bumps' random profile.
+      contact: how the terrain holds the robot (sticky as the floor, slip, or friction).
+      friction: the Coulomb coefficient of a friction contact (>= 0).
+      gap: cells between the robot's front and the terrain's start.
+    """
+
+    KEY = "world"
+    kind: WorldKind = WorldKind.flat
+    angle: float = 10.0
+    step_height: float = 0.02
+    step_length: float = 0.1
+    amplitude: float = 0.02
+    wavelength: float = 0.1
+    seed: int = 0
+    contact: ContactKind = ContactKind.sticky
+    friction: float = 0.5
+    gap: float = 2.0
+
+    def check(self) -> None:
+        if not (number(self.angle) and 0 < self.angle <= 45):
+            self._invalid("angle", "must lie in (0, 45] degrees")
+        self._positive_numbers("step_height", "step_length", "amplitude", "wavelength")
+        self._positive_numbers("friction", "gap", zero=True)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            self._invalid("seed", "must be an integer >= 0")
+
+
 @dataclass(frozen=True)
 class TaskConfig(Settings):
     KEY = "task"
@@ -589,6 +641,7 @@ class Config(Settings):
 
     method: Method = Method.litl
     robot: RobotConfig = field(default_factory=RobotConfig)
+    world: WorldConfig = field(default_factory=WorldConfig)
     task: TaskConfig = field(default_factory=TaskConfig)
     observer: ObserverConfig = field(default_factory=ObserverConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
@@ -620,15 +673,16 @@ class Config(Settings):
 
     def run_settings(self) -> dict[str, Any]:
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
-        match them): method, observer, controller, sim, loop, seeds, seed."""
+        match them): method, observer, controller, sim, loop, seeds, seed, and the world where it
+        is not flat (runs before worlds existed were flat and recorded none)."""
         tree = self.to_tree()
         tree["observer"], tree["controller"] = self.observer.record(), self.controller.record()
         for section, keys in EXECUTION_KEYS.items():  # they change memory and time only
             for key in keys:
                 tree[section].pop(key)
-        return {
-            name: tree[name] for name in ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
-        }
+        names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
+        world = ("world",) if self.world.kind != WorldKind.flat else ()
+        return {name: tree[name] for name in names + world}
 
 
 # Settings that change how much memory and time a run takes, not what it computes (at most its

@@ -55,6 +55,7 @@ from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
 from litl.old_settings import upgrade
 from litl.robots.robot import Robot
+from litl.robots.worlds import with_world
 from litl.stuck import seed_ends
 
 # Iterations skipped in a row after which a seed is reported as failing.
@@ -131,8 +132,9 @@ def run(
 
     Args:
       robot: the robot and its default task.
-      config: the run's settings (observer, controller, sim, loop, seeds, seed; robot and task
-        are the `robot` argument's).
+      config: the run's settings (observer, controller, sim, loop, seeds, seed, and the world
+        the robot is put in, `litl.robots.worlds.with_world`; robot and task are the `robot`
+        argument's).
       run_dir: directory for metrics, checkpoints and final parameters (created if needed).
       progress: show a progress bar on stderr.
       stop_after_episodes: return after this many episodes in total (the run can be resumed
@@ -156,6 +158,7 @@ def run(
     # A logger that cannot be used fails before anything is built or any directory is made, so
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
+    robot = with_world(robot, config.world)
     run_dir = pathlib.Path(run_dir)
     bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)
     # Learning epochs are reported only where a progress display shows them (a compiled phase

@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterable, Sequence
-from typing import Literal
+from typing import Any, Literal
 
 from litl.errors import UserError
 
@@ -97,7 +97,7 @@ class Boundary:
     walls: tuple[Wall, ...]
     thickness: int = 3
     pinned_boxes: tuple[tuple[tuple[float, ...], tuple[float, ...]], ...] = ()
-    colliders: tuple = ()
+    colliders: tuple[Any, ...] = ()
 
     @classmethod
     def box(
@@ -107,7 +107,7 @@ class Boundary:
         sides: Wall | WallKind = "sticky",
         thickness: int = 3,
         pinned_boxes: Iterable[Corners] = (),
-        colliders: Iterable = (),
+        colliders: Iterable[Any] = (),
     ) -> Boundary:
         """A closed box: `floor` on the low face of axis 1, `sides` on every other face, and
         `colliders` inside it."""

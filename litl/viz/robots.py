@@ -216,6 +216,18 @@ def _wall_rectangles(config) -> list[tuple[tuple[float, float], float, float]]:
     return bands
 
 
+def _draw_collider(ax, collider, config, resolution: int = 256) -> None:
+    """A 2D collider's solid (signed distance < 0), filled in the walls' colour."""
+    if config.dim != 2:
+        return
+    width, height = config.domain_size
+    xs, ys = np.linspace(0, width, resolution), np.linspace(0, height, resolution)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="xy"), axis=-1)
+    phi, _ = collider.shape.distance(grid)
+    filled = ax.contourf(xs, ys, phi, levels=[phi.min() - 1.0, 0.0], colors=[WALL_COLOR], zorder=1)
+    filled.set_gid("collider")
+
+
 def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
     """Per-axis (low, high) limits: the domain, or the particles and targets with a margin."""
     if config is not None:
@@ -285,6 +297,8 @@ def draw_robot(
             ax.add_patch(
                 Rectangle(corner, width, height, facecolor=WALL_COLOR, edgecolor="none", zorder=1, gid="wall")
             )
+        for collider in config.boundary.colliders:
+            _draw_collider(ax, collider, config)
         for lo, hi in config.boundary.pinned_boxes:
             ax.add_patch(
                 Rectangle(

@@ -1,0 +1,90 @@
+"""Worlds: the ground a robot walks on, as colliders added to its scene (`litl.sim.colliders`).
+
+A world is terrain ahead of the robot, starting `gap` cells past its front (its largest x), so the
+robot starts on the flat floor as in the empty box and meets the terrain when it walks:
+
+* ``flat``: the empty box (no collider; today's scenes, bit for bit);
+* ``slope``: the ground rises at `angle` degrees;
+* ``steps``: stairs of `step_height` risers every `step_length` (each riser one cell wide);
+* ``bumps``: a random piecewise-linear profile, heights in [0, `amplitude`] every
+  `wavelength` / 2, drawn from `seed`.
+
+In 3D the profile is the same for every z. The terrain's contact is `contact` (sticky, as the
+catalog's floors, slip or friction with coefficient `friction`). Its flat part lies under the
+box's floor wall (it holds the same grid nodes), so only the terrain ahead adds contact. The robot
+keeps its own task (distance along x, which on a slope is the distance along it times cos θ).
+
+`with_world(robot, world)` returns the robot in that world (idempotent); the command line's
+`world=` group and `litl.loop.run` call it with `Config.world`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from litl.robots.robot import Robot
+from litl.sim.colliders import Collider, HeightField
+from litl.sim.config import SimConfigError, Wall
+
+
+def terrain(world, robot: Robot) -> tuple[Collider, ...]:
+    """The colliders of `world` (a `litl.config.WorldConfig`) in front of `robot`."""
+    kind = str(getattr(world.kind, "value", world.kind))
+    if kind == "flat":
+        return ()
+    config = robot.config
+    assert config.boundary is not None  # SimConfig sets the default box
+    dx, length = config.dx, config.domain_size[0]
+    floor = (config.boundary.thickness - 2) * dx  # with a one-cell band: the floor wall's nodes
+    start = float(robot.layout.bounds()[1][0]) + world.gap * dx
+    if start >= length - 4 * dx:
+        raise SimConfigError(
+            f"world={kind}: the robot's front is at x = {start - world.gap * dx:.3g}, which leaves no room "
+            f"for terrain in a domain {length:.3g} long; use a smaller world.gap or another robot"
+        )
+    xs, heights = [0.0, start], [floor, floor]
+    if kind == "slope":
+        xs.append(length)
+        heights.append(floor + (length - start) * math.tan(math.radians(world.angle)))
+    elif kind == "steps":
+        x, height = start, floor
+        while x + dx < length:
+            height += world.step_height
+            xs += [x + dx]
+            heights += [height]
+            x += world.step_length
+            xs += [min(x, length)]
+            heights += [height]
+    elif kind == "bumps":
+        rng = np.random.default_rng(world.seed)
+        x = start
+        while x < length:
+            x = min(x + world.wavelength / 2, length)
+            xs.append(x)
+            heights.append(floor + world.amplitude * float(rng.uniform()))
+    else:
+        raise SimConfigError(f"world.kind={kind!r}: unknown world; choose one of flat, slope, steps, bumps")
+    top = config.domain_size[1] - (config.boundary.thickness + 2) * dx
+    if max(heights) > top:
+        raise SimConfigError(
+            f"world={kind}: its terrain reaches y = {max(heights):.3g}, above the room under the "
+            f"ceiling ({top:.3g}); use a smaller world.angle, world.step_height or world.amplitude"
+        )
+    contact = Wall(world.contact, world.friction if world.contact == "friction" else 0.0)
+    return (Collider(HeightField(tuple(xs), tuple(heights), dim=robot.dim), contact),)
+
+
+def with_world(robot: Robot, world) -> Robot:
+    """`robot` in `world` (a `litl.config.WorldConfig`): the world's terrain is added to its
+    scene's colliders (after its own); a robot already in it is returned as it is."""
+    colliders = terrain(world, robot)
+    boundary = robot.config.boundary
+    assert boundary is not None  # SimConfig sets the default box
+    if not colliders or boundary.colliders[-len(colliders) :] == colliders:
+        return robot
+    boundary = dataclasses.replace(boundary, colliders=boundary.colliders + colliders)
+    config = dataclasses.replace(robot.config, boundary=boundary)
+    return dataclasses.replace(robot, config=config)
