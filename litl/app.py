@@ -18,6 +18,7 @@ from typing import Literal
 import litl.robots
 from litl.config import (
     RESOLUTIONS,
+    BaselineKind,
     Config,
     MaterialConfig,
     SettingsError,
@@ -186,12 +187,27 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     run_dir = pathlib.Path(run_dir)
     robot = _as_made(build_robot(config), config, run_dir)
     check_observer(config)
+    budget = (
+        f"{config.loop.episodes} x {config.loop.iterations} iterations"
+        if config.baseline.kind == BaselineKind.none
+        else f"{config.baseline.kind.value}, {config.baseline.generations} generations of "
+        f"{config.baseline.population}"
+    )
     say(
         f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
-        f"{config.loop.episodes} x {config.loop.iterations} iterations -> {run_dir}"
+        f"{budget} -> {run_dir}"
     )
     run_dir.mkdir(parents=True, exist_ok=True)
+    if config.baseline.kind != BaselineKind.none:  # a gradient-free baseline instead of the loop
+        from litl.baselines import run_baseline
+
+        done = run_baseline(robot, config, run_dir, config.output.progress, config_files)
+        losses = ", ".join(
+            "n/a" if f["task_loss"] is None else f"{f['task_loss']:.6g}" for f in done["final"]
+        )
+        say(f"litl: {config.baseline.kind.value}: final task loss per seed [{losses}]; results in {run_dir}")
+        return done
     with RunDirectoryLock(run_dir):  # held through the pictures too
         result = run(robot, config, run_dir, progress=config.output.progress, config_files=config_files)
         if config.output.pictures or config.output.animation:

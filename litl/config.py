@@ -235,6 +235,38 @@ class WorldConfig(Settings):
             self._invalid("seed", "must be an integer >= 0")
 
 
+class BaselineKind(enum.StrEnum):
+    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), or CMA-ES."""
+
+    none = "none"
+    cmaes = "cmaes"
+
+
+@dataclass(frozen=True)
+class BaselineConfig(Settings):
+    """A gradient-free baseline instead of litl's loop (`baseline=cmaes`; `litl.baselines`).
+
+    Attributes:
+      kind: none (litl's loop) or cmaes (`BaselineKind`).
+      population: candidates per generation (>= 2); each costs one forward simulation.
+      generations: generations to run (the budget: generations x (population + 1) simulations).
+      sigma: the strategy's initial step size on the controller's weights and the design
+        variables (normalized Young's modulus).
+    """
+
+    KEY = "baseline"
+    kind: BaselineKind = BaselineKind.none
+    population: int = 16
+    generations: int = 50
+    sigma: float = 0.1
+
+    def check(self) -> None:
+        if isinstance(self.population, bool) or not isinstance(self.population, int) or self.population < 2:
+            self._invalid("population", "must be an integer >= 2")
+        self._positive_ints("generations")
+        self._positive_numbers("sigma")
+
+
 @dataclass(frozen=True)
 class TaskConfig(Settings):
     KEY = "task"
@@ -647,6 +679,7 @@ class Config(Settings):
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     sim: RolloutConfig = field(default_factory=RolloutConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
+    baseline: BaselineConfig = field(default_factory=BaselineConfig)
     experiment: ExperimentConfig = field(default_factory=ExperimentConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
     seeds: int = 1
@@ -682,7 +715,8 @@ class Config(Settings):
                 tree[section].pop(key)
         names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
         world = ("world",) if self.world.kind != WorldKind.flat else ()
-        return {name: tree[name] for name in names + world}
+        baseline = ("baseline",) if self.baseline.kind != BaselineKind.none else ()
+        return {name: tree[name] for name in names + world + baseline}
 
 
 # Settings that change how much memory and time a run takes, not what it computes (at most its

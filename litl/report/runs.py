@@ -132,10 +132,13 @@ class Run:
 
     @property
     def head(self) -> str:
-        """What feeds the controller, heading the run's label: the observer, or an open-loop
-        controller's name (``"sinusoid"``)."""
+        """What heads the run's label: a gradient-free baseline's name (``"cmaes"``), else what
+        feeds the controller: the observer, or an open-loop controller's name (``"sinusoid"``)."""
         from litl.registry import registry
 
+        baseline = str(self.config.get("baseline.kind", "none"))
+        if baseline != "none":
+            return baseline
         entry = registry("controller").find(self.controller)
         open_loop = entry.traits.get("open_loop", False) if entry is not None else self.controller != "mlp"
         return self.controller if open_loop else self.observer
