@@ -22,8 +22,8 @@ from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 from litl.app import import_named_modules, run_experiment
-from litl.config import from_hydra, register_with_hydra
 from litl.errors import UserError, exit_on_user_error
+from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop.progress import say, set_label
 from litl.loop.run import RunDirectoryError
 from litl.old_settings import translate_overrides

@@ -23,9 +23,8 @@ from litl.config import (
     MaterialConfig,
     SettingsError,
     TaskKind,
-    from_hydra,
-    register_with_hydra,
 )
+from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop import run
 from litl.loop.progress import say
 from litl.loop.run import RunDirectoryLock

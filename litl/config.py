@@ -14,8 +14,9 @@ The core's sections are robot, task, sim, loop, experiment and output. `observer
 are *parts*: a `kind` chosen among registered names, an optional `module` that registers a user's
 own, and one section per registered settings dataclass (``observer.vae``, ``observer.mine``),
 which each observer or controller declares with its registration (`litl.observers.register`,
-`litl.controllers.register`; `litl.registry`). `register_with_hydra` builds the Hydra schema from
-the same classes, so a typo, a wrong type or an unknown choice fails when the config is composed.
+`litl.controllers.register`; `litl.registry`; the parts' machinery is `litl.parts`).
+`litl.hydra_schema` builds the Hydra schema from the same classes, so a typo, a wrong type or an
+unknown choice fails when the config is composed.
 
 Importing this module imports no JAX; building a `Config` imports the observers and controllers
 (their settings classes live with them).
@@ -26,9 +27,10 @@ from __future__ import annotations
 import dataclasses
 import enum
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any
 
-from litl.registry import import_module, registry
+from litl.parts import ControllerConfig, ObserverConfig
+from litl.registry import registry
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
 from litl.trees import flatten, unflatten
 
@@ -79,11 +81,6 @@ class Resolution(enum.StrEnum):
     paper = "paper"
     demo = "demo"
     smoke = "smoke"
-
-
-class Activation(enum.StrEnum):
-    elu = "elu"  # keeps units alive on the mostly empty field
-    relu = "relu"  # the paper's
 
 
 class LoggerKind(enum.StrEnum):
@@ -271,190 +268,6 @@ class BaselineConfig(Settings):
 class TaskConfig(Settings):
     KEY = "task"
     kind: TaskKind = TaskKind.default
-
-
-class PartConfig(Settings):
-    """A part of the config that a registry fills (`ObserverConfig`, `ControllerConfig`): `kind`
-    (a registered name), `module` (imported first: it registers a user's own) and one settings
-    section per registered settings dataclass, read as attributes (``config.observer.vae``) and
-    written as keys (``observer.vae.latent_dim=4``). `sections` holds them, as (name, settings)
-    pairs; building the part fills in every registered section's defaults."""
-
-    PART: ClassVar[str] = ""
-    if TYPE_CHECKING:  # every subclass has these fields
-        kind: str
-        module: str | None
-        sections: tuple[tuple[str, Settings], ...]
-
-    def __post_init__(self) -> None:
-        import_module(f"{self.PART}.module", self.module, f"litl.{self.PART}s.register")
-        given = dict(self.sections)
-        known = registry(self.PART).sections()
-        unknown = sorted(set(given) - set(known))
-        if unknown:
-            raise SettingsError(self._unknown_sections(unknown), f"{self.PART}.{unknown[0]}")
-        filled = tuple((name, given.get(name) or kind()) for name, kind in known.items())
-        object.__setattr__(self, "sections", filled)
-        super().__post_init__()
-
-    def check(self) -> None:
-        if registry(self.PART).find(self.kind) is None:
-            hint = (
-                f"; {self.PART}.module={self.module!r} registered no {self.PART} of that name"
-                if self.module
-                else f"; a{'n' if self.PART[0] in 'aeiou' else ''} {self.PART} of your own: "
-                f"{self.PART}.kind=<name> {self.PART}.module=<module that registers it>"
-            )
-            raise SettingsError(
-                f"{self.PART}.kind={self.kind!r}: unknown {self.PART}; choose one of "
-                f"{list(registry(self.PART).names())}{hint}",
-                f"{self.PART}.kind",
-            )
-
-    def _unknown_sections(self, unknown: list[str]) -> str:
-        names = list(registry(self.PART).sections())
-        return (
-            f"unknown {self.PART} section(s) {[f'{self.PART}.{u}' for u in unknown]}: no registered "
-            f"{self.PART} reads them; the sections are {names} (a{'n' if self.PART[0] in 'aeiou' else ''} "
-            f"{self.PART} of your own: {self.PART}.module=<module that registers it>)"
-        )
-
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("__") or name == "sections":
-            raise AttributeError(name)
-        for section, settings in self.sections:
-            if section == name:
-                return settings
-        raise AttributeError(f"{type(self).__name__} has no field or section {name!r}")
-
-    @property
-    def section(self) -> Settings | None:
-        """The settings of the chosen `kind` (its section), or None if it has none."""
-        return dict(self.sections).get(registry(self.PART).get(self.kind).section)
-
-    def replace(self, **changes: Any) -> Any:
-        from litl.old_settings import moved_changes
-
-        changes = moved_changes(self.KEY, changes)
-        own = {f.name for f in dataclasses.fields(self)} - {"sections"}
-        plain = {key: value for key, value in changes.items() if key in own}
-        if plain.get("module"):
-            import_module(f"{self.PART}.module", plain["module"], f"litl.{self.PART}s.register")
-        sections = dict(self.sections)
-        known = registry(self.PART).sections()
-        unknown = sorted(set(changes) - own - set(known))
-        if unknown:
-            raise SettingsError(self._unknown_sections(unknown), f"{self.PART}.{unknown[0]}")
-        for name in set(changes) - own:
-            value = changes[name]
-            current = sections.get(name) or known[name]()
-            sections[name] = _replaced(current, value, f"{self.PART}.{name}")
-        return dataclasses.replace(self, **plain, sections=tuple(sections.items()))
-
-    def to_tree(self) -> dict[str, Any]:
-        own = {
-            f.name: json_safe(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "sections"
-        }
-        return {**own, **{name: json_safe(settings) for name, settings in self.sections}}
-
-    def record(self) -> dict[str, Any]:
-        """What run.json records: the part's own keys and the chosen kind's section only (two
-        runs differ in their observer exactly when that section differs)."""
-        tree = self.to_tree()
-        read = registry(self.PART).get(self.kind).section
-        return {key: value for key, value in tree.items() if not isinstance(value, dict) or key == read}
-
-    @classmethod
-    def from_tree(cls, values: dict[Any, Any]) -> Any:
-        own = {f.name for f in dataclasses.fields(cls)} - {"sections"}
-        plain = {key: value for key, value in values.items() if key in own}
-        import_module(f"{cls.PART}.module", plain.get("module"), f"litl.{cls.PART}s.register")
-        known = registry(cls.PART).sections()
-        sections = {}
-        for name, value in values.items():
-            if name in own:
-                continue
-            if name not in known or not isinstance(value, dict):
-                names = list(known)
-                raise SettingsError(
-                    f"unknown setting {cls.PART}.{name}: the {cls.PART}'s keys are {sorted(own)} and "
-                    f"the sections {names} (a{'n' if cls.PART[0] in 'aeiou' else ''} {cls.PART} of "
-                    f"your own: {cls.PART}.module=<module that registers it>)",
-                    f"{cls.PART}.{name}",
-                )
-            sections[name] = _built(known[name], value, f"{cls.PART}.{name}")
-        return cls(**plain, sections=tuple(sections.items()))  # type: ignore[call-arg]  # a dataclass
-
-
-def _built(kind: type[Settings], values: dict[str, Any], key: str) -> Settings:
-    """A registered section from plain values; a settings class that does not derive from
-    `Settings` gets its unknown keys and its constructor's errors named by their key."""
-    if issubclass(kind, Settings):
-        return kind.from_tree(values)
-    names = {f.name for f in dataclasses.fields(kind)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise SettingsError(
-            f"unknown setting(s) {[f'{key}.{u}' for u in unknown]}; valid: {sorted(names)}", key
-        )
-    try:
-        return kind(**values)
-    except (TypeError, ValueError) as error:
-        raise SettingsError(f"{key}: {error}", key) from None
-
-
-def _replaced(current: Any, value: Any, key: str) -> Any:
-    if isinstance(value, dict):
-        if isinstance(current, Settings):
-            return current.replace(**value)
-        return _built(type(current), {**dataclasses.asdict(current), **value}, key)
-    return value
-
-
-@dataclass(frozen=True)
-class ObserverConfig(PartConfig):
-    """What the controller sees: a registered observer (`litl.observers`) and its settings.
-
-    Attributes:
-      kind: vae (the method), ae (plain autoencoder), pca (linear baseline), kmeans (the
-        paper's baseline), none (no features: open-loop control), or your own.
-      module: a module to import first, which registers observers of your own
-        (`litl.observers.register`); then kind=<its name>.
-      sections: every registered observer's settings (read as ``observer.vae``,
-        ``observer.kmeans``, ...; each observer's dataclass documents its keys).
-    """
-
-    KEY = "observer"
-    PART = "observer"
-    kind: str = "vae"
-    module: str | None = None
-    sections: tuple[tuple[str, Any], ...] = ()
-
-
-@dataclass(frozen=True)
-class ControllerConfig(PartConfig):
-    """The controller θ (a registered controller, `litl.controllers`), its settings and its
-    optimizer.
-
-    Attributes:
-      kind: mlp (closed loop on the observer's features) or sinusoid (open loop; needs observer
-        none), or your own.
-      module: a module to import first, which registers controllers of your own.
-      learning_rate: Adam step size of θ.
-      sections: every registered controller's settings (``controller.mlp``,
-        ``controller.sinusoid``).
-    """
-
-    KEY = "controller"
-    PART = "controller"
-    kind: str = "mlp"
-    module: str | None = None
-    learning_rate: float = 0.01
-    sections: tuple[tuple[str, Any], ...] = ()
-
-    def check(self) -> None:
-        super().check()
-        self._positive_numbers("learning_rate")
 
 
 @dataclass(frozen=True)
@@ -766,74 +579,12 @@ def method_changes(method: str | Method) -> dict[str, Any]:
     return yaml.safe_load(text) or {}
 
 
-def hydra_schema(kind: type[Settings] = Settings) -> type:
-    """The Hydra schema of `Config` (or of one section): the same dataclasses, with each part
-    (`PartConfig`) a dataclass whose fields are its keys and its registered sections, so Hydra
-    types every key of every registered observer and controller."""
-    from litl.settings import field_types, settings_class_of
-
-    kind = Config if kind is Settings else kind
-    hints = field_types(kind)
-    fields: list[tuple[str, Any, Any]] = []
-    for f in dataclasses.fields(kind):
-        if f.name == "sections":
-            part: Any = kind
-            for name, settings in registry(part.PART).sections().items():
-                fields.append((name, settings, field(default_factory=settings)))
-            continue
-        nested = settings_class_of(hints[f.name])
-        if nested is not None and issubclass(nested, PartConfig):
-            schema = hydra_schema(nested)
-            fields.append((f.name, schema, field(default_factory=schema)))
-        elif f.default is not dataclasses.MISSING:
-            fields.append((f.name, hints[f.name], field(default=f.default)))
-        else:
-            fields.append((f.name, hints[f.name], field(default_factory=f.default_factory)))
-    return dataclasses.make_dataclass(f"{kind.__name__}Schema", fields)
-
-
-def register_with_hydra() -> None:
-    """Put `Config` in Hydra's ConfigStore as `litl_schema`, which `conf/config.yaml` extends.
-
-    The dataclasses are frozen for the Python API; Hydra merges YAML files and overrides into
-    the node, so its read-only flags are lifted (the result is frozen again by `from_dict`)."""
-    from hydra.core.config_store import ConfigStore
-    from omegaconf import DictConfig, OmegaConf
-
-    def writable(node: Any) -> None:
-        node._set_flag("readonly", None)
-        if isinstance(node, DictConfig):
-            for key in node:
-                writable(node._get_node(key))
-
-    node = OmegaConf.structured(hydra_schema())
-    writable(node)
-    store = ConfigStore.instance()
-    store.store(name="litl_schema", node=node)
-    # A registered observer or controller without a YAML file of its own (a user's) is an option
-    # of its group too: observer=<name>.
-    from importlib import resources
-
-    for part in ("observer", "controller"):
-        files = resources.files("litl.conf") / part
-        for name in registry(part).names():
-            if not (files / f"{name}.yaml").is_file():
-                store.store(group=part, name=name, node={"kind": name})
-
-
-def from_hydra(cfg: Any) -> Config:
-    """Convert a composed Hydra config (DictConfig) into `Config`, checking every value."""
-    from omegaconf import OmegaConf, SCMode
-
-    plain = OmegaConf.to_container(cfg, resolve=True, structured_config_mode=SCMode.DICT)
-    assert isinstance(plain, dict)  # a DictConfig converts to a dict
-    plain.pop("hydra", None)
-    return from_dict(Config, plain)
-
-
 # Names that lived here before observers and controllers owned their settings (2026-11-27), and
 # the old-spelling tables, which moved next to their readers (`litl.old_settings`).
 _MOVED_NAMES = {
+    "hydra_schema": ("litl.hydra_schema", "hydra_schema"),
+    "register_with_hydra": ("litl.hydra_schema", "register_with_hydra"),
+    "from_hydra": ("litl.hydra_schema", "from_hydra"),
     "AutoencoderConfig": ("litl.observers.autoencoder", "AutoencoderSettings"),
     "KMeansConfig": ("litl.observers.kmeans", "KMeansSettings"),
     "PCAConfig": ("litl.observers.pca", "PCASettings"),

@@ -51,6 +51,8 @@ PNG = "import tempfile\nfrom importlib import resources"
 LOOP = "import tempfile\nimport litl.robots"
 MODULE = "# my_robots.py"  # tests/robots/test_register.py and tests/test_cli.py run it
 OBSERVER_MODULE = "# my_observers.py"  # tests/loop/test_observers.py runs it
+ENVIRONMENTS = "import jax, jax.numpy as jnp\nimport litl.envs"
+WORLD = "import dataclasses, math\nimport litl.robots"
 
 
 def test_every_block_is_checked():
@@ -58,7 +60,18 @@ def test_every_block_is_checked():
     for page, block in BLOCKS:
         starts = [
             s
-            for s in (SIMULATING, OBSERVERS, ROBOTS, SHAPES, PNG, LOOP, MODULE, OBSERVER_MODULE)
+            for s in (
+                SIMULATING,
+                OBSERVERS,
+                ROBOTS,
+                SHAPES,
+                PNG,
+                LOOP,
+                MODULE,
+                OBSERVER_MODULE,
+                ENVIRONMENTS,
+                WORLD,
+            )
             if block.startswith(s)
         ]
         assert len(starts) == 1, f"this python block of {page.name} has no test:\n{block[:200]}"
@@ -152,3 +165,16 @@ def test_loop_block_runs():
     ns = run_block(LOOP)
     assert len(ns["result"].metrics) == 2 * 2 * 2
     assert ns["final"]["design"].shape == (2, 4)
+
+
+def test_environments_block_steps_64_environments():
+    namespace = run_block(ENVIRONMENTS)
+    assert namespace["obs"].shape == (64, 8) and namespace["reward"].shape == (64,)
+    assert bool(jnp.all(namespace["done"]))  # the episode's last step (then each reset)
+
+
+def test_world_block_builds_a_robot_with_its_colliders():
+    namespace = run_block(WORLD)
+    robot = namespace["robot"]
+    (collider,) = robot.config.boundary.colliders
+    assert collider.contact.friction == 0.6 and len(collider.shape.shapes) == 2
