@@ -6,9 +6,10 @@
 `run_baseline(robot, config, run_dir)` optimizes the same parameters as litl's loop, the
 controller network θ and the design φ (Young's modulus per region, kept in its bounds), with an
 evolution strategy from evosax (``cmaes``: CMA-ES, with evosax's defaults but the initial step
-size `baseline.sigma`), one independent strategy per seed, all seeds and each generation's
-population simulated at once (vmapped). Its fitness is the task loss of one forward simulation,
-the same rollout litl differentiates. The observer is fixed: an observer that learns (vae, ae,
+size `baseline.sigma`; ``openai_es``: OpenAI-ES with mirrored sampling, standard deviation
+`baseline.sigma` and Adam at `baseline.learning_rate` on the mean), one independent strategy
+per seed, all seeds and each generation's population simulated at once (vmapped). Its fitness
+is the task loss of one forward simulation, the same rollout litl differentiates. The observer is fixed: an observer that learns (vae, ae,
 pca) is refused, since no learning phase runs (use observer=kmeans, whose clusters are fitted at
 the start, or none).
 
@@ -37,10 +38,23 @@ from litl.loop.run import RunDirectoryLock, _claim, settings
 from litl.robots.robot import Robot
 
 
-def _strategy(kind: BaselineKind, population: int, template):
-    from evosax.algorithms import CMA_ES
+def _strategy(baseline, template):
+    """The evosax strategy and its parameters: CMA-ES with its defaults but the initial step size;
+    OpenAI-ES with mirrored sampling, a constant standard deviation and Adam on the mean."""
+    import optax
+    from evosax.algorithms import CMA_ES, Open_ES
 
-    return CMA_ES(population_size=population, solution=template)
+    if baseline.kind == BaselineKind.cmaes:
+        strategy = CMA_ES(population_size=baseline.population, solution=template)
+        params = strategy.default_params
+        return strategy, params.replace(std_init=jnp.asarray(baseline.sigma, params.std_init.dtype))
+    strategy = Open_ES(
+        population_size=baseline.population,
+        solution=template,
+        optimizer=optax.adam(baseline.learning_rate),
+        std_schedule=optax.constant_schedule(baseline.sigma),
+    )
+    return strategy, strategy.default_params
 
 
 def run_baseline(
@@ -67,9 +81,7 @@ def run_baseline(
     low, high = robot.design_space.bounds
     normalized = [(s.design - low) / (high - low) for s in starts]
     template = (starts[0].controller, normalized[0])
-    strategy = _strategy(baseline.kind, baseline.population, template)
-    params = strategy.default_params
-    params = params.replace(std_init=jnp.asarray(baseline.sigma, params.std_init.dtype))
+    strategy, params = _strategy(baseline, template)
     observers = jax.tree.map(lambda *x: jnp.stack(x), *[s.observer for s in starts])
     means = jax.tree.map(
         lambda *x: jnp.stack(x), *[(s.controller, u) for s, u in zip(starts, normalized, strict=True)]

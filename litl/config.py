@@ -233,22 +233,27 @@ class WorldConfig(Settings):
 
 
 class BaselineKind(enum.StrEnum):
-    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), or CMA-ES."""
+    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), CMA-ES or
+    OpenAI-ES."""
 
     none = "none"
     cmaes = "cmaes"
+    openai_es = "openai_es"
 
 
 @dataclass(frozen=True)
 class BaselineConfig(Settings):
-    """A gradient-free baseline instead of litl's loop (`baseline=cmaes`; `litl.baselines`).
+    """A gradient-free baseline instead of litl's loop (`baseline=cmaes|openai_es`;
+    `litl.baselines`).
 
     Attributes:
-      kind: none (litl's loop) or cmaes (`BaselineKind`).
-      population: candidates per generation (>= 2); each costs one forward simulation.
+      kind: none (litl's loop), cmaes or openai_es (`BaselineKind`).
+      population: candidates per generation (>= 2; even for openai_es, whose samples come in
+        mirrored pairs); each costs one forward simulation.
       generations: generations to run (the budget: generations x (population + 1) simulations).
-      sigma: the strategy's initial step size on the controller's weights and the design
-        variables (normalized Young's modulus).
+      sigma: the search distribution's (initial) standard deviation on the controller's weights
+        and the design variables (Young's modulus in units of its range).
+      learning_rate: OpenAI-ES's Adam step size on the mean (cmaes ignores it).
     """
 
     KEY = "baseline"
@@ -256,12 +261,15 @@ class BaselineConfig(Settings):
     population: int = 16
     generations: int = 50
     sigma: float = 0.1
+    learning_rate: float = 0.03
 
     def check(self) -> None:
         if isinstance(self.population, bool) or not isinstance(self.population, int) or self.population < 2:
             self._invalid("population", "must be an integer >= 2")
+        if self.kind == BaselineKind.openai_es and self.population % 2:
+            self._invalid("population", "must be even for openai_es (its samples come in mirrored pairs)")
         self._positive_ints("generations")
-        self._positive_numbers("sigma")
+        self._positive_numbers("sigma", "learning_rate")
 
 
 @dataclass(frozen=True)

@@ -37,6 +37,7 @@ def test_a_cmaes_run_writes_a_run_directory_the_report_reads(cmaes_run):
         "population": 4,
         "generations": 2,
         "sigma": 0.1,
+        "learning_rate": 0.03,
     }
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert [(r["seed"], r["step"]) for r in records] == [(0, 0), (1, 0), (0, 1), (1, 1)]
@@ -76,11 +77,20 @@ def test_its_start_is_litls_and_it_is_deterministic(cmaes_run, tmp_path):
         ("baseline.generations=0", "baseline.generations=0: must be a positive integer"),
         ("baseline.sigma=0", "baseline.sigma=0.0: must be a positive number"),
         ("baseline=ppo", "ppo"),
+        ("baseline=openai_es baseline.population=3", "baseline.population=3: must be even for openai_es"),
+        ("baseline.learning_rate=-1", "baseline.learning_rate=-1.0: must be a positive number"),
     ],
 )
 def test_bad_baseline_settings_are_refused_naming_the_key(override, message):
     with pytest.raises(SettingsError, match=message):
-        compose([*SMOKE, override])
+        compose([*SMOKE, *override.split()])
+
+
+def test_openai_es_runs_and_starts_from_litls_parameters(tmp_path):
+    config = compose([*SMOKE, "baseline=openai_es", "output.progress=false"])
+    done = run_experiment(config, tmp_path)
+    assert [r["simulations"] for r in done["records"]] == [5, 10]
+    assert json.loads((tmp_path / "run.json").read_text())["config"]["baseline"]["kind"] == "openai_es"
 
 
 def test_a_learning_observer_is_refused_before_anything_is_written(tmp_path):
