@@ -9,9 +9,9 @@ evolution strategy from evosax (``cmaes``: CMA-ES, with evosax's defaults but th
 size `baseline.sigma`; ``openai_es``: OpenAI-ES with mirrored sampling, standard deviation
 `baseline.sigma` and Adam at `baseline.learning_rate` on the mean), one independent strategy
 per seed, all seeds and each generation's population simulated at once (vmapped). Its fitness
-is the task loss of one forward simulation, the same rollout litl differentiates. The observer is fixed: an observer that learns (vae, ae,
-pca) is refused, since no learning phase runs (use observer=kmeans, whose clusters are fitted at
-the start, or none).
+is the task loss of one forward simulation, the same rollout litl differentiates. The observer
+is fixed: an observer that learns (vae, ae, pca) is refused, since no learning phase runs (use
+observer=kmeans, whose clusters are fitted at the start, or none).
 
 The run directory is a litl run's: run.json (settings, with the baseline's section), metrics.jsonl
 (one record per generation and seed: ``task_loss``, the loss of the strategy's mean, and
