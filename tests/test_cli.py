@@ -8,6 +8,7 @@ installed (the README's commands install it non-editable) and the source tree ot
 """
 
 import importlib.metadata
+import importlib.util
 import json
 import os
 import pathlib
@@ -35,6 +36,16 @@ def litl_command(args, cwd, timeout=600):
         text=True,
         timeout=timeout,
     )
+
+
+def gallery_script():
+    """notebooks/gallery/make_gallery.py as a module (it is a script, not part of the package)."""
+    spec = importlib.util.spec_from_file_location(
+        "make_gallery", ROOT / "notebooks" / "gallery" / "make_gallery.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def run_dirs(root):
@@ -72,21 +83,10 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     # Quiet logs: no TPU probe, no matplotlib INFO chatter.
     assert "Unable to initialize backend" not in done.stderr
     assert "[matplotlib" not in done.stderr and "INFO" not in done.stderr
-    # The README's gallery script draws from such a run.
-    gallery = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
-            "--demo",
-            str(run_dir),
-            "--out",
-            str(tmp_path / "gallery"),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert gallery.returncode == 0, gallery.stderr[-3000:]
+    # The README's gallery script draws from such a run (its `main`, in this process: the
+    # script's own command line is argparse's).
+    gallery = gallery_script()
+    assert gallery.main(["--demo", str(run_dir), "--out", str(tmp_path / "gallery")]) == 0
     for name in (
         "robots.png",
         "task_loss.png",
@@ -96,35 +96,20 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
         "latent_sweeps.png",
     ):
         assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
-    # ... and replays a folder of runs (the 3D walkers') into walker_<run>.gif, demo skipped.
-    walkers = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "notebooks" / "gallery" / "make_gallery.py"),
-            "--no-demo",
-            "--walkers",
-            str(run_dir.parent),
-            "--out",
-            str(tmp_path / "walkers"),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    # ... and replays a folder of runs (the 3D walkers') into walker_<run>.gif, demo skipped
+    # (each by `python -m litl.replay` in a process of its own).
+    assert (
+        gallery.main(["--no-demo", "--walkers", str(run_dir.parent), "--out", str(tmp_path / "walkers")]) == 0
     )
-    assert walkers.returncode == 0, walkers.stderr[-3000:]
     assert sorted(p.name for p in (tmp_path / "walkers").iterdir()) == [
         f"walker_{run_dir.name}.gif",
         f"walker_{run_dir.name}_gait.png",
     ]
-    # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss.
-    replay = subprocess.run(
-        [sys.executable, "-m", "litl.replay", str(run_dir), "--seed", "1"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert replay.returncode == 0, replay.stderr[-3000:]
+    # A CLI run replays from its .hydra record: seed 1's final parameters give final.json's loss
+    # (`python -m litl.replay`'s `main`, in this process).
+    from litl.replay import main as replay_main
+
+    assert replay_main([str(run_dir), "--seed", "1"]) == 0
     summary = json.loads((run_dir / "replay" / "seed1.json").read_text())
     assert summary["recorded_loss"] == json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
     # The replay is another program than the run's (one seed, not vmapped): to float32 rounding.
@@ -135,12 +120,14 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
 @pytest.mark.slow
 def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
     """`method=paper` (the whole grid, ReLU, plain velocities, features only, full gradient, no
-    safeguards) runs a paper preset end to end, pictures included."""
+    safeguards) runs a paper preset end to end, pictures included (two of the preset's ten
+    seeds: that a preset's seed count survives +scale=smoke is checked in process below)."""
     done = litl_command(
         [
             "experiment=fig4b_biped",
             "method=paper",
             "+scale=smoke",
+            "seeds=2",
             "output.animation=false",
             "output.progress=false",
         ],
@@ -153,7 +140,7 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
     assert recorded["config"]["method"] == "paper"
     assert recorded["config"]["observer"]["vae"]["window"] is None
     records = [json.loads(line) for line in (fig4b / "metrics.jsonl").read_text().splitlines()]
-    assert len(records) == 2 * 2 * 10
+    assert len(records) == 2 * 2 * 2 and {r["seed"] for r in records} == {0, 1}
     assert all(r["task_loss"] is not None for r in records)
     assert (fig4b / "snapshots.png").stat().st_size > 0
 
@@ -306,6 +293,8 @@ def test_experiment_presets_compose_at_paper_scale_and_shrink_with_smoke():
     smoke = compose(["experiment=fig4a_arm", "+scale=smoke"])
     assert smoke.robot.name == "arm" and smoke.loop.episodes == 2 and smoke.seeds == 10
     assert not smoke.loop.codesign and build_robot(smoke).config.dx == 1 / 32
+    # The paper method's preset keeps its ten seeds at smoke scale (its CLI run above sets 2).
+    assert compose(["experiment=fig4b_biped", "method=paper", "+scale=smoke"]).seeds == 10
     variant = compose(["experiment=fig4a_arm", "variant=vae_one_shot"])
     assert variant.observer.kind == "vae" and variant.loop.schedule == "one_shot"
     sized = compose(["variant=kmeans", "size=s4"])

@@ -19,6 +19,21 @@ from tests.loop.tiny import tiny_config, tiny_robot
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
+SEEDS = (3, 4)
+
+
+@pytest.fixture(scope="module")
+def bootstrapped():
+    """The tiny float64 run's algorithm, and seeds 3 and 4 after the bootstrap (a rollout and a
+    learning phase), vmapped and jitted: the first step of both tests below, computed once."""
+    with jax.enable_x64(True):
+        algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
+        states, stats = jax.jit(jax.vmap(algorithm.bootstrap))(
+            stack_seeds([algorithm.init(s) for s in SEEDS])
+        )
+    return algorithm, states, stats
+
+
 def episode_of(algorithm, batched):
     """bootstrap (a rollout and a learning phase) -> optimize -> optimize, jitted (and vmapped
     when `batched`); the jitted functions are built once, so running several seeds alone compiles
@@ -26,22 +41,25 @@ def episode_of(algorithm, batched):
     wrap = (lambda f: jax.jit(jax.vmap(f))) if batched else jax.jit
     bootstrap, optimize = wrap(algorithm.bootstrap), wrap(algorithm.optimize)
 
-    def one_episode(state):
-        state, stats = bootstrap(state)
+    def after_bootstrap(state, stats):
         state, first = optimize(state)
         state, second = optimize(state)
         return state, (first["task_loss"], second["task_loss"], stats["recon_loss_val"])
 
+    def one_episode(state):
+        return after_bootstrap(*bootstrap(state))
+
+    one_episode.after_bootstrap = after_bootstrap
     return one_episode
 
 
 @pytest.mark.slow
-def test_vmapped_seeds_equal_sequential_runs(x64):
-    algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
-    seeds = (3, 4)
-    together, measured = episode_of(algorithm, True)(stack_seeds([algorithm.init(s) for s in seeds]))
+def test_vmapped_seeds_equal_sequential_runs(bootstrapped, x64):
+    algorithm, states, stats = bootstrapped
+    # The vmapped episode, from the fixture's vmapped bootstrap (the same jitted program).
+    together, measured = episode_of(algorithm, True).after_bootstrap(states, stats)
     alone_episode = episode_of(algorithm, False)
-    for index, seed in enumerate(seeds):
+    for index, seed in enumerate(SEEDS):
         alone, alone_measured = alone_episode(algorithm.init(seed))
         for batched, single in zip(measured, alone_measured, strict=True):
             np.testing.assert_allclose(batched[index], single, rtol=1e-6)
@@ -53,13 +71,11 @@ def test_vmapped_seeds_equal_sequential_runs(x64):
     assert measured[0][0] != measured[0][1]
 
 
-def test_learning_phases_run_one_seed_at_a_time_equal_the_vmapped_phases(x64):
+def test_learning_phases_run_one_seed_at_a_time_equal_the_vmapped_phases(bootstrapped, x64):
     """`loop.learning_seeds_at_once` groups the same computation: two seeds' learning phases one
     at a time or vmapped give the same observers, states and statistics (float64; in float32
     their rounding differs and early stopping can amplify it)."""
-    algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
-    states = stack_seeds([algorithm.init(s) for s in (3, 4)])
-    states, _ = jax.jit(jax.vmap(algorithm.bootstrap))(states)
+    algorithm, states, _ = bootstrapped
     expected = jax.jit(jax.vmap(algorithm.learn))(states)
     got = jax.jit(functools.partial(algorithm.learn_seeds, at_once=1))(states)
     for mine, theirs in zip(jax.tree.leaves(got), jax.tree.leaves(expected), strict=True):

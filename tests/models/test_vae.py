@@ -54,7 +54,10 @@ def _train(model, fields, steps=500, seed=0):
 def test_training_beats_predicting_the_mean(variational):
     fields = synthetic_fields(256)
     model = vae.ConvAutoencoder((32, 32), latent_dim=6, variational=variational)
-    params, out = _train(model, fields)
+    # 300 steps: the held-out error is then well below 0.3 of the mean's (VAE and plain
+    # autoencoder: 0.21 and 0.17 after 250 steps, 0.19 and 0.12 after 500; 100 steps cost
+    # ~2 s on a CPU).
+    params, out = _train(model, fields, steps=300)
     held_out = synthetic_fields(64, seed=1)
     val = vae.losses(model, params, held_out)
     x = held_out / params.scale
