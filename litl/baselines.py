@@ -104,8 +104,8 @@ def run_baseline(
     keys = jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in seeds])
     init = jax.vmap(lambda key, mean: strategy.init(jax.random.wrap_key_data(key), mean, params))
     states = init(keys, means)
-    step_all = jax.vmap(
-        lambda key, state, observer: generation(jax.random.wrap_key_data(key), state, observer)
+    step_all = jax.jit(  # traced once, not at every generation
+        jax.vmap(lambda key, state, observer: generation(jax.random.wrap_key_data(key), state, observer))
     )
     # Each generation's keys: every seed's key split, the first half kept.
     advance = jax.jit(

@@ -114,6 +114,25 @@ class Registry:
             )
         return self._entries[name]
 
+    def build(self, name_or_config: Any, robot: Any, context: Any, returns: type) -> tuple[Entry, Any]:
+        """(entry, what its factory built) for `robot`: `name_or_config` is the config's part
+        (its `kind` with its `section`) or a registered name (its settings' defaults); the factory
+        must return a `returns`."""
+        if isinstance(name_or_config, str):
+            entry = self.get(name_or_config)
+            settings = entry.settings() if entry.settings is not None else None
+        else:
+            entry = self.get(name_or_config.kind)
+            settings = name_or_config.section
+        built = entry.factory(robot, settings, context)
+        if not isinstance(built, returns):
+            raise SettingsError(
+                f"{self.part} {entry.name!r}: its factory returned {type(built).__name__}, not a "
+                f"{returns.__module__.rsplit('.', 1)[0]}.{returns.__name__}",
+                f"{self.part}.kind",
+            )
+        return entry, built
+
     def find(self, name: str) -> Entry | None:
         return self._entries.get(name)
 

@@ -14,7 +14,7 @@ import dataclasses
 from typing import Any
 
 from litl.registry import Registry, registry
-from litl.settings import Settings, SettingsError
+from litl.settings import Settings
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,17 +67,4 @@ def names() -> tuple[str, ...]:
 def make(name_or_config, robot, context: ControllerContext) -> Controller:
     """The controller for `robot`: `name_or_config` is an `litl.config.ControllerConfig` (its
     kind with its section) or a registered name (with its settings' defaults)."""
-    if isinstance(name_or_config, str):
-        entry = CONTROLLERS.get(name_or_config)
-        settings = entry.settings() if entry.settings is not None else None
-    else:
-        entry = CONTROLLERS.get(name_or_config.kind)
-        settings = name_or_config.section
-    controller = entry.factory(robot, settings, context)
-    if not isinstance(controller, Controller):
-        raise SettingsError(
-            f"controller {entry.name!r}: its factory returned {type(controller).__name__}, not a "
-            f"litl.controllers.Controller",
-            "controller.kind",
-        )
-    return controller
+    return CONTROLLERS.build(name_or_config, robot, context, Controller)[1]

@@ -27,7 +27,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from litl.registry import Registry, registry
-from litl.settings import Settings, SettingsError
+from litl.settings import Settings
 
 if TYPE_CHECKING:
     import jax
@@ -185,19 +185,7 @@ def names() -> tuple[str, ...]:
 def make(name_or_config, robot, context: ObserverContext) -> Observer:
     """The observer for `robot`: `name_or_config` is an `litl.config.ObserverConfig` (its kind
     with its section) or a registered name (with its settings' defaults)."""
-    if isinstance(name_or_config, str):
-        entry = OBSERVERS.get(name_or_config)
-        settings = entry.settings() if entry.settings is not None else None
-    else:
-        entry = OBSERVERS.get(name_or_config.kind)
-        settings = name_or_config.section
-    observer = entry.factory(robot, settings, context)
-    if not isinstance(observer, Observer):
-        raise SettingsError(
-            f"observer {entry.name!r}: its factory returned {type(observer).__name__}, not a "
-            f"litl.observers.Observer",
-            "observer.kind",
-        )
+    entry, observer = OBSERVERS.build(name_or_config, robot, context, Observer)
     if observer.settings is None and entry.settings is not None:
         observer = dataclasses.replace(observer, settings=entry.section)
     return observer
