@@ -166,6 +166,11 @@ class SimConfig:
         exactly; a rollout that never reaches it agrees with an unlimited one to rounding. None:
         purely elastic (ChainQueen / DiffTaichi, the published walker's scene, the 3D walkers);
         the catalog's 2D robots use `litl.robots.design.MAX_STRETCH` (`Material.max_stretch`).
+      materials: the scene's materials with their return mappings (`litl.sim.materials`:
+        `Elastic`, `Sand`, `Clay`, `Fluid`); each particle's `Body.material` indexes this tuple.
+        Empty (the default): every particle is ``Elastic(constitutive_model, max_stretch)``, the
+        program today's scenes always ran; given, `constitutive_model` and `max_stretch` must keep
+        their defaults (say them in an `Elastic` entry instead).
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
@@ -186,6 +191,7 @@ class SimConfig:
     mass_epsilon: float = 1e-10
     max_stretch: float | None = None
     buffering: Buffering = "auto"
+    materials: tuple[Any, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
@@ -217,6 +223,18 @@ class SimConfig:
                 f"max_stretch must be a finite number > 1 (the largest principal stretch a particle "
                 f"keeps, e.g. 3.0) or None (no limit), got {self.max_stretch!r}"
             )
+        object.__setattr__(self, "materials", tuple(self.materials))
+        if self.materials:
+            if not all(callable(getattr(m, "update", None)) for m in self.materials):
+                raise SimConfigError(
+                    "SimConfig.materials must hold litl.sim.materials models (Elastic, Sand, Clay, "
+                    f"Fluid), got {self.materials!r}"
+                )
+            if self.constitutive_model != "fixed_corotated" or self.max_stretch is not None:
+                raise SimConfigError(
+                    "SimConfig.materials is given, so constitutive_model and max_stretch must keep "
+                    "their defaults: put them in an Elastic(model=..., max_stretch=...) entry instead"
+                )
         if self.buffering not in BUFFERINGS:
             raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
         boundary = Boundary.box(dim) if self.boundary is None else self.boundary

@@ -116,6 +116,17 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
     for name, (value, shape) in expected.items():
         if np.shape(value) != shape:
             raise SimConfigError(f"{name} must have shape {shape}, got {np.shape(value)}")
+    if body.material is not None:
+        if np.shape(body.material) != (n,):
+            raise SimConfigError(f"body.material must have shape {(n,)}, got {np.shape(body.material)}")
+        ids = np.asarray(body.material)
+        count = max(len(config.materials), 1)
+        if ids.min() < 0 or ids.max() >= count:
+            raise SimConfigError(
+                f"body.material ids must index SimConfig.materials ({count} given: "
+                f"{[type(m).__name__ for m in config.materials] or ['the default elastic material']}), "
+                f"got range [{ids.min()}, {ids.max()}]; add the missing materials to SimConfig.materials"
+            )
     m = np.shape(body.fiber)[0] if np.ndim(body.fiber) == 2 else -1
     if np.shape(body.fiber) != (m, dim):
         raise SimConfigError(f"body.fiber must have shape (n_actuators, {dim}), got {np.shape(body.fiber)}")

@@ -98,12 +98,16 @@ class Body:
       actuator: (n,) int32 actuator id of each particle, -1 for passive particles.
       fiber: (m, d) unit fiber direction of each actuator.
       pinned: (n,) bool, particles held fixed in place.
+      material: (n,) int32 index of each particle's material in `SimConfig.materials`, or None:
+        every particle is of the first (or, without `SimConfig.materials`, of the config's elastic
+        material).
     """
 
     volume: jnp.ndarray
     actuator: jnp.ndarray
     fiber: jnp.ndarray
     pinned: jnp.ndarray
+    material: jnp.ndarray | None = None
 
     @property
     def n_particles(self) -> int:
