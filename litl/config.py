@@ -187,6 +187,15 @@ class WorldKind(enum.StrEnum):
     slope = "slope"
     steps = "steps"
     bumps = "bumps"
+    sand = "sand"  # a bed of sand on the floor (a second body, `litl.robots.scenery`)
+    water = "water"  # a pool of water on the floor
+
+
+class ObservedPart(enum.StrEnum):
+    """What the observers of a robot among other bodies see (`WorldConfig.observe`)."""
+
+    robot = "robot"
+    scene = "scene"
 
 
 class ContactKind(enum.StrEnum):
@@ -209,6 +218,12 @@ class WorldConfig(Settings):
       contact: how the terrain holds the robot (sticky as the floor, slip, or friction).
       friction: the Coulomb coefficient of a friction contact (>= 0).
       gap: cells between the robot's front and the terrain's start.
+      depth: the sand bed's or the pool's depth (domain units); the robot starts on top of it.
+      friction_angle: the sand's friction angle, degrees in (0, 90) (`litl.sim.materials.Sand`).
+      density: the sand's or the water's density, relative to the robot's.
+      observe: what a robot's observers see in a world with a second body: ``robot`` (the grid
+        field at the nodes the robot's particles reach) or ``scene`` (the whole field, the sand
+        or water included).
     """
 
     KEY = "world"
@@ -222,12 +237,19 @@ class WorldConfig(Settings):
     contact: ContactKind = ContactKind.sticky
     friction: float = 0.5
     gap: float = 2.0
+    depth: float = 0.04
+    friction_angle: float = 30.0
+    density: float = 1.5
+    observe: ObservedPart = ObservedPart.robot
 
     def check(self) -> None:
         if not (number(self.angle) and 0 < self.angle <= 45):
             self._invalid("angle", "must lie in (0, 45] degrees")
         self._positive_numbers("step_height", "step_length", "amplitude", "wavelength")
         self._positive_numbers("friction", "gap", zero=True)
+        self._positive_numbers("depth", "density")
+        if not (number(self.friction_angle) and 0 < self.friction_angle < 90):
+            self._invalid("friction_angle", "must lie in (0, 90) degrees")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             self._invalid("seed", "must be an integer >= 0")
 

@@ -176,7 +176,7 @@ class Environment:
         return jnp.asarray(total, self.dtype)
 
     def _observe(self, state: EnvState, previous: SimState) -> jax.Array:
-        sim = state.sim
+        sim = self.robot.own(state.sim)  # the robot's particles (not its scenery's)
         velocity = jnp.mean(sim.v, axis=0)
         stretched = jnp.linalg.norm(jnp.einsum("nij,mj->nmi", sim.F, self._fiber), axis=-1) - 1.0  # (n, m)
         strain = jnp.sum(self._members * stretched, axis=0)

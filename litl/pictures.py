@@ -47,7 +47,7 @@ def draw_run(
     # Only the animation needs a rollout; without it the pictures use seed 0 (whose parameters
     # are finite: failed iterations never update them).
     chosen: int | None = 0
-    recording: tuple[np.ndarray, np.ndarray] | None = None  # (positions, actuation)
+    recording: tuple[np.ndarray, ...] | None = None  # (positions, actuation[, scenery positions])
     if animation:
         status("pictures: simulating the final robot for robot.gif")
         chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
@@ -66,7 +66,11 @@ def draw_run(
             written += _representation(robot, algorithm, state, run_dir, stride=config.loop.snapshot_stride)
     if animation and recording is not None:
         status("pictures: robot.gif")
-        written.append(animate_rollout(robot, *recording, run_dir / "robot.gif", fps=20))
+        positions, actuation, *scenery = recording
+        gif = run_dir / "robot.gif"
+        written.append(
+            animate_rollout(robot, positions, actuation, gif, fps=20, scenery=scenery[0] if scenery else None)
+        )
     return written
 
 
@@ -85,6 +89,7 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
                 stride=min(stride, steps),
                 check=True,
                 field=algorithm.field,
+                scenery=bool(robot.scenery),
             )
         except SimulationError as error:
             say(f"pictures: skipping seed {config.seed + index}: {error}")

@@ -160,7 +160,7 @@ def replay(
 
     space = robot.design_space
     design = np.asarray(one["design"])
-    positions, actuation = record_rollout(
+    positions, actuation, *scenery = record_rollout(
         robot,
         algorithm.policy,
         (one["controller"], one["observer"]),
@@ -169,10 +169,12 @@ def replay(
         stride=min(stride, steps),
         check=False,
         field=algorithm.field,
+        scenery=bool(robot.scenery),
     )
     coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" else {}
     out.parent.mkdir(parents=True, exist_ok=True)
-    animate_rollout(robot, positions, actuation, out, fps=20, **coloring)
+    terrain = scenery[0] if scenery else None
+    animate_rollout(robot, positions, actuation, out, fps=20, scenery=terrain, **coloring)
     picture = out.with_name(out.stem + "_design.png")
     _draw_design(robot, design, space.bounds, picture, draw)
 

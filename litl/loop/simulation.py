@@ -61,6 +61,7 @@ class Simulation:
     def policy(self, params, state, grid_velocity):
         """Actuation from the observer's features of the grid (and the clock)."""
         controller_params, observer_params = params
+        state = self.robot.own(state)  # observers read the robot's particles, not the scenery's
         features = self.observer.features(jax.lax.stop_gradient(observer_params), state, grid_velocity)
         if not self.controller.feature_gradient:
             features = jax.lax.stop_gradient(features)
@@ -76,6 +77,13 @@ class Simulation:
             return mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
         return grid_velocity
 
+    @property
+    def centroid(self):
+        """centroid(state): the robot's particles' mean position (the scenery's left out)."""
+        if not self.robot.scenery:
+            return centroid
+        return lambda state: centroid(self.robot.own(state))
+
     @functools.cached_property
     def rollout(self):
         """One seed's rollout; the seeds run vmapped, so each gets its share of the budget."""
@@ -89,7 +97,7 @@ class Simulation:
             self.policy,
             self.steps,
             snapshot_stride=self.stride,
-            observe=centroid,
+            observe=self.centroid,
             field=self.field,
             checkpoint_every=sim.checkpoint_every,
             memory_budget=budget,
@@ -117,7 +125,7 @@ class Simulation:
         """(n_snapshots, d) the robot's mean particle velocity at each snapshot, from the
         centroids recorded before and after the step that produced it (x += dt v, so the
         difference is exact for free particles)."""
-        centres = jnp.concatenate([centroid(self.scene.state)[None], trajectory.observations])
+        centres = jnp.concatenate([self.centroid(self.scene.state)[None], trajectory.observations])
         velocity = (centres[1:] - centres[:-1]) / self.scene.config.dt
         stride = self.stride
         return velocity[stride - 1 :: stride][: trajectory.snapshots.shape[0]]

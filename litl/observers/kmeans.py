@@ -35,7 +35,7 @@ def kmeans(robot, settings: KMeansSettings, context: ObserverContext) -> Observe
             f"observer.kmeans.clusters={clusters} exceeds the robot's {robot.layout.n_particles} particles",
             "observer.kmeans.clusters",
         )
-    rest = robot.initial_state(dtype).x
+    rest = robot.own(robot.initial_state(dtype)).x  # the robot's particles, not its scenery's
     return Observer(
         n_features=2 * clusters * sim_config.dim,
         init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),

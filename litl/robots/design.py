@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import jax.numpy as jnp
 import numpy as np
@@ -115,12 +116,15 @@ class DesignSpace:
       n_regions: R, the length of φ.
       n_actuators: actuators of the robot (one strength each in the `Design`).
       material: initial value and bounds of φ, and the fixed material parameters.
+      scenery: the scene's passive bodies (`litl.robots.scenery.Scenery`), whose particles follow
+        the robot's in the `Design` with their own fixed values.
     """
 
     region: np.ndarray
     n_regions: int
     n_actuators: int
     material: Material
+    scenery: tuple[Any, ...] = ()
 
     @property
     def bounds(self) -> tuple[float, float]:
@@ -148,9 +152,24 @@ class DesignSpace:
         design_variables = jnp.asarray(design_variables, dtype)
         dtype = design_variables.dtype
         n, material = len(self.region), self.material
-        return Design(
+        design = Design(
             youngs_modulus=design_variables[jnp.asarray(self.region)],
             poisson_ratio=jnp.full((n,), material.poisson_ratio, dtype),
             density=jnp.full((n,), material.density, dtype),
             actuator_strength=jnp.full((self.n_actuators,), material.actuator_strength, dtype),
+        )
+        if not self.scenery:
+            return design
+
+        def fixed(key: str) -> jnp.ndarray:
+            return jnp.concatenate(
+                [getattr(design, key)]
+                + [jnp.full((body.n_particles,), getattr(body, key), dtype) for body in self.scenery]
+            )
+
+        return Design(
+            youngs_modulus=fixed("youngs_modulus"),
+            poisson_ratio=fixed("poisson_ratio"),
+            density=fixed("density"),
+            actuator_strength=design.actuator_strength,
         )

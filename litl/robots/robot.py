@@ -14,6 +14,7 @@ import numpy as np
 
 from litl.robots.design import DesignSpace, Material
 from litl.robots.layout import Layout, LayoutError
+from litl.robots.scenery import Scenery, check_apart
 from litl.robots.tasks import Task, make_task_loss
 from litl.sim import (
     Body,
@@ -50,6 +51,11 @@ class Robot:
       steps: the rollout length in simulation steps (1 s of simulated time for the catalog's
         robots); `sim.steps` overrides it. (An episode is one of Algorithm 1's K rounds.)
       description: one paragraph for users: shape, size, actuators, task.
+      scenery: passive bodies sharing the scene (`litl.robots.scenery.Scenery`: a sand bed, a
+        pool), their particles after the robot's; `config.materials` holds the robot's elastic
+        material first and theirs after it (`litl.robots.worlds` builds both).
+      observe_scenery: whether observers see the whole scene's grid field; False (the default):
+        only the nodes the robot's particles reach (`litl.sim.Body.observed`).
     """
 
     name: str
@@ -59,6 +65,8 @@ class Robot:
     task: Task | None = None
     steps: int = 1000
     description: str = ""
+    scenery: tuple[Scenery, ...] = ()
+    observe_scenery: bool = False
 
     def __post_init__(self):
         if self.layout.dim != self.config.dim:
@@ -72,6 +80,15 @@ class Robot:
         check_clear(
             self.config.boundary.colliders, self.layout.positions, self.config.dx, f"robot {self.name!r}"
         )
+        if self.scenery:
+            materials = self.config.materials
+            for body in self.scenery:
+                if body.material not in materials[1:]:
+                    raise SimConfigError(
+                        f"robot {self.name!r}: its scenery {body.name!r} is of {body.material}, which its "
+                        f"config's materials {materials} lack; build the scene with litl.robots.worlds"
+                    )
+            check_apart(self.layout.positions, self.scenery, self.config.dx, f"robot {self.name!r}")
         if self.task is not None:
             make_task_loss(self.task, self.layout)  # validates groups and targets
         # The stiffest design allowed must still be stable at this dt, and the softest must hold
@@ -97,11 +114,55 @@ class Robot:
     # ---- simulator pytrees
     def body(self, dtype=jnp.float32) -> Body:
         layout = self.layout
+        if not self.scenery:
+            return Body(
+                volume=jnp.asarray(layout.volume, dtype),
+                actuator=jnp.asarray(layout.actuator),
+                fiber=jnp.asarray(layout.fiber, dtype),
+                pinned=jnp.asarray(layout.pinned),
+            )
+        # The robot's particles first, each passive body's after them.
+        counts = [body.n_particles for body in self.scenery]
+        materials = self.config.materials
+        own = layout.n_particles
         return Body(
-            volume=jnp.asarray(layout.volume, dtype),
-            actuator=jnp.asarray(layout.actuator),
+            volume=jnp.asarray(
+                np.concatenate([layout.volume] + [np.full(b.n_particles, b.volume) for b in self.scenery]),
+                dtype,
+            ),
+            actuator=jnp.asarray(np.concatenate([layout.actuator, np.full(sum(counts), -1, np.int32)])),
             fiber=jnp.asarray(layout.fiber, dtype),
-            pinned=jnp.asarray(layout.pinned),
+            pinned=jnp.asarray(np.concatenate([layout.pinned, np.zeros(sum(counts), bool)])),
+            material=jnp.asarray(
+                np.concatenate(
+                    [np.zeros(own, np.int32)]
+                    + [
+                        np.full(k, materials.index(b.material), np.int32)
+                        for k, b in zip(counts, self.scenery, strict=True)
+                    ]
+                )
+            ),
+            observed=None
+            if self.observe_scenery
+            else jnp.asarray(np.concatenate([np.ones(own, bool), np.zeros(sum(counts), bool)])),
+        )
+
+    @property
+    def n_particles(self) -> int:
+        """The robot's own particles (the scene's first ones; the scenery's follow)."""
+        return self.layout.n_particles
+
+    def own(self, state: SimState) -> SimState:
+        """The robot's part of a scene's state (`state` itself when there is no scenery)."""
+        if not self.scenery:
+            return state
+        n = self.layout.n_particles
+        return dataclasses.replace(
+            state,
+            x=state.x[..., :n, :],
+            v=state.v[..., :n, :],
+            C=state.C[..., :n, :, :],
+            F=state.F[..., :n, :, :],
         )
 
     @property
@@ -112,6 +173,7 @@ class Robot:
             n_regions=self.n_regions,
             n_actuators=self.n_actuators,
             material=self.material,
+            scenery=self.scenery,
         )
 
     def with_material(self, material: Material) -> Robot:
@@ -130,7 +192,9 @@ class Robot:
         )
 
     def initial_state(self, dtype=jnp.float32) -> SimState:
-        return SimState.at_rest(jnp.asarray(self.layout.positions, dtype))
+        """The scene at rest: the robot's particles, then the scenery's."""
+        positions = [self.layout.positions] + [body.positions for body in self.scenery]
+        return SimState.at_rest(jnp.asarray(np.concatenate(positions), dtype))
 
     def scene(self, dtype=jnp.float32) -> Scene:
         return Scene(
@@ -142,7 +206,10 @@ class Robot:
         task = task or self.task
         if task is None:
             raise SimConfigError(f"robot {self.name!r} has no default task; pass one")
-        return make_task_loss(task, self.layout)
+        loss = make_task_loss(task, self.layout)
+        if not self.scenery:
+            return loss
+        return lambda initial, final: loss(self.own(initial), self.own(final))
 
 
 def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:

@@ -169,8 +169,9 @@ class SimConfig:
       materials: the scene's materials with their return mappings (`litl.sim.materials`:
         `Elastic`, `Sand`, `Clay`, `Fluid`); each particle's `Body.material` indexes this tuple.
         Empty (the default): every particle is ``Elastic(constitutive_model, max_stretch)``, the
-        program today's scenes always ran; given, `constitutive_model` and `max_stretch` must keep
-        their defaults (say them in an `Elastic` entry instead).
+        program today's scenes always ran; given, `constitutive_model` and `max_stretch` keep
+        their defaults or describe its first entry, an `Elastic` (a robot's own material, which
+        the scene's other bodies join).
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
@@ -230,10 +231,14 @@ class SimConfig:
                     "SimConfig.materials must hold litl.sim.materials models (Elastic, Sand, Clay, "
                     f"Fluid), got {self.materials!r}"
                 )
-            if self.constitutive_model != "fixed_corotated" or self.max_stretch is not None:
+            named = self.constitutive_model != "fixed_corotated" or self.max_stretch is not None
+            first = self.materials[0]
+            stated = (getattr(first, "model", None), getattr(first, "max_stretch", 0.0))
+            if named and stated != (self.constitutive_model, self.max_stretch):
                 raise SimConfigError(
                     "SimConfig.materials is given, so constitutive_model and max_stretch must keep "
-                    "their defaults: put them in an Elastic(model=..., max_stretch=...) entry instead"
+                    "their defaults, or describe its first material (Elastic(model=..., "
+                    "max_stretch=...)); put them in that Elastic entry instead"
                 )
         if self.buffering not in BUFFERINGS:
             raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")

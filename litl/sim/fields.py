@@ -27,8 +27,11 @@ GridField = Callable[[Grid], jnp.ndarray]
 
 
 def grid_velocity(grid: Grid) -> jnp.ndarray:
-    """(*grid_shape, d) node velocities."""
-    return grid.velocity
+    """(*grid_shape, d) node velocities (where only some particles are observed,
+    `Body.observed`: at the nodes their mass reaches, zero elsewhere)."""
+    if grid.observed_mass is None:
+        return grid.velocity
+    return jnp.where((grid.observed_mass > 0)[..., None], grid.velocity, 0.0)
 
 
 def mass_weighted_velocity(reference_mass: float) -> GridField:
@@ -41,7 +44,9 @@ def mass_weighted_velocity(reference_mass: float) -> GridField:
         raise ValueError(f"reference_mass must be positive, got {reference_mass!r}")
 
     def field(grid: Grid) -> jnp.ndarray:
-        weight = grid.mass / jnp.asarray(reference_mass, grid.mass.dtype)
+        # Where only some particles are observed (`Body.observed`), weighted by their mass alone.
+        mass = grid.mass if grid.observed_mass is None else grid.observed_mass
+        weight = mass / jnp.asarray(reference_mass, mass.dtype)
         return grid.velocity * weight[..., None]
 
     return field

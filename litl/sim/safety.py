@@ -127,6 +127,8 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
                 f"{[type(m).__name__ for m in config.materials] or ['the default elastic material']}), "
                 f"got range [{ids.min()}, {ids.max()}]; add the missing materials to SimConfig.materials"
             )
+    if body.observed is not None and np.shape(body.observed) != (n,):
+        raise SimConfigError(f"body.observed must have shape {(n,)}, got {np.shape(body.observed)}")
     m = np.shape(body.fiber)[0] if np.ndim(body.fiber) == 2 else -1
     if np.shape(body.fiber) != (m, dim):
         raise SimConfigError(f"body.fiber must have shape (n_actuators, {dim}), got {np.shape(body.fiber)}")

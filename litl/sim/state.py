@@ -101,6 +101,10 @@ class Body:
       material: (n,) int32 index of each particle's material in `SimConfig.materials`, or None:
         every particle is of the first (or, without `SimConfig.materials`, of the config's elastic
         material).
+      observed: (n,) bool, the particles an observer sees (a robot among terrain bodies), or
+        None: all. Given, each step also scatters these particles' mass to the grid
+        (`Grid.observed_mass`), and the grid fields (`litl.sim.fields`) keep only the nodes it
+        reaches.
     """
 
     volume: jnp.ndarray
@@ -108,6 +112,7 @@ class Body:
     fiber: jnp.ndarray
     pinned: jnp.ndarray
     material: jnp.ndarray | None = None
+    observed: jnp.ndarray | None = None
 
     @property
     def n_particles(self) -> int:
@@ -125,7 +130,10 @@ class Grid:
     Attributes:
       velocity: (*grid_shape, d) node velocities.
       mass: (*grid_shape,) node masses.
+      observed_mass: (*grid_shape,) the mass of the observed particles (`Body.observed`) at each
+        node, or None where every particle is observed.
     """
 
     velocity: jnp.ndarray
     mass: jnp.ndarray
+    observed_mass: jnp.ndarray | None = None

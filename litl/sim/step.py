@@ -10,7 +10,7 @@ from flax import struct
 
 from litl.sim import linalg, materials, transfer
 from litl.sim.boundary import apply_boundary
-from litl.sim.config import SimConfig
+from litl.sim.config import SimConfig, SimConfigError
 from litl.sim.constitutive import CONSTITUTIVE_MODELS, actuation_stress
 from litl.sim.state import Body, Design, Grid, SimState
 from litl.sim.stretch import limit_stretch
@@ -124,6 +124,10 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
     compute values read by many consumers into buffers (`linalg.materialize`), as
     `resolve_buffering(config)` says, decided once here for the default backend.
     """
+    if stress is not None and config.materials:
+        raise SimConfigError(
+            "pass either stress= or SimConfig.materials, not both: a material brings its own stress"
+        )
     stress_model = stress or CONSTITUTIVE_MODELS[config.constitutive_model]
     dx, dt, dim = config.dx, config.dt, config.dim
     buffering = resolve_buffering(config)
@@ -164,7 +168,12 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
             affine = linalg.materialize(affine, field_token)
         st = transfer.stencil(state.x, dx, config.grid_shape, node_token)
         momentum = [mass * v for v in state.v]
-        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, config.grid_shape, node_token)
+        extra = () if body.observed is None else (jnp.where(body.observed, mass, 0.0),)
+        shape = config.grid_shape
+        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, shape, node_token, extra)
+        observed_mass = None
+        if extra:
+            grid, observed_mass = grid[..., : 1 + dim], grid[..., 1 + dim]
         if node_token is not None:
             # In reverse mode: the grid's cotangent is formed once before the scatter's transpose
             # gathers it, instead of the grid update's backward being recomputed per read.
@@ -179,7 +188,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         C = [[jnp.where(free, c, 0.0) for c in row] for row in C]
         x = [x + dt * c for x, c in zip(state.x, v, strict=True)]
         next_state = Components(x=x, v=v, C=C, F=F, step=state.step + 1)
-        return next_state, Grid(velocity=velocity, mass=grid_mass)
+        return next_state, Grid(velocity=velocity, mass=grid_mass, observed_mass=observed_mass)
 
     return step
 
@@ -209,6 +218,7 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
     """
     mass = design.density * body.volume
     st = transfer.stencil(linalg.split_vec(state.x), config.dx, config.grid_shape)
+    extra = () if body.observed is None else (jnp.where(body.observed, mass, 0.0),)
     grid = transfer.particles_to_grid(
         st,
         mass,
@@ -216,7 +226,11 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
         linalg.scale(linalg.split_mat(state.C), mass),
         config.dx,
         config.grid_shape,
+        extra=extra,
     )
+    observed_mass = None
+    if extra:
+        grid, observed_mass = grid[..., : 1 + config.dim], grid[..., 1 + config.dim]
     velocity, grid_mass = _grid_velocity(config, grid, mass)
     velocity = apply_boundary(config, velocity)
-    return Grid(velocity=jnp.stack(velocity, axis=-1), mass=grid_mass)
+    return Grid(velocity=jnp.stack(velocity, axis=-1), mass=grid_mass, observed_mass=observed_mass)

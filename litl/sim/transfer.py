@@ -204,7 +204,7 @@ def gather_from_grid(st: Stencil, grid):
     return gather(st.base, grid)[..., :channels]
 
 
-def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token=None):
+def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token=None, extra=()):
     """MLS-MPM particle-to-grid transfer: node i gets w_ip (m_p, m_p v_p + A_p (x_i - x_p)).
 
     Args:
@@ -214,9 +214,12 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token
       affine: d x d arrays (n,), affine momentum matrix A (stress term + m C).
       dx: grid spacing.
       grid_shape: nodes per axis.
+      extra: more (n,) per-particle values to scatter with the same weights (e.g. the mass of
+        the particles an observer sees), each one more channel after the momentum.
 
     Returns:
-      (*grid_shape, 1 + d) grid holding the mass, then the momentum components.
+      (*grid_shape, 1 + d + len(extra)) grid holding the mass, then the momentum components
+      (then the extra values).
     """
     dim = st.dim
     # x_i - x_p = (offset - fx) dx, so A (x_i - x_p) = dx A offset - dx A fx: the second part is
@@ -235,7 +238,8 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token
                 if offset[k]:
                     node = node + offset[k] * columns[c][k]
             values.append(weight * node)
-    values = linalg.stack(values, -1).reshape((-1,) + (3,) * dim + (1 + dim,))
+        values.extend(weight * value for value in extra)
+    values = linalg.stack(values, -1).reshape((-1,) + (3,) * dim + (1 + dim + len(extra),))
     return scatter_to_grid(st, values, grid_shape)
 
 

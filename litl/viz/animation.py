@@ -74,6 +74,7 @@ def animate_rollout(
     colorbar: bool = True,
     stiffness=None,
     stiffness_range=None,
+    scenery=None,
 ) -> Path:
     """Write an animation of a rollout to `path` (``.gif`` always, ``.mp4`` with ffmpeg).
 
@@ -94,6 +95,8 @@ def animate_rollout(
       stiffness: (R,) Young's modulus per design region (a design φ): colour the particles by
         it (``viridis`` over `stiffness_range`, default the values' range) instead of by
         actuation.
+      scenery: (T, k, d) positions of the robot's scenery per frame (`record_rollout(...,
+        scenery=True)`), drawn under it (2D); None: none drawn.
 
     Returns:
       The path written.
@@ -139,8 +142,10 @@ def animate_rollout(
             first_actuation,
             show_targets,
             colorbar=colorbar,
+            scenery=None if scenery is None else scenery[0],
             **coloring,
         )
+    terrain = next((a for a in ax.get_children() if a.get_gid() == "scenery"), None)
     fixed = (
         particle_colors(layout, stiffness=stiffness, stiffness_range=stiffness_range)
         if stiffness is not None
@@ -160,6 +165,8 @@ def animate_rollout(
                 cross._offsets3d = tuple(to_plot_3d(x[group].mean(axis=0))[:, None])
         else:
             particles.set_offsets(x)
+            if terrain is not None and scenery is not None:
+                terrain.set_offsets(scenery[frame])
             for cross, group in zip(crosses, groups, strict=True):
                 cross.set_data(*x[group].mean(axis=0)[:, None])
         particles.set_facecolor(colors)
@@ -188,7 +195,15 @@ def save_animation(animation, path: Path, writer, dpi: int) -> None:
 
 
 def record_rollout(
-    robot, policy, policy_params, steps: int, design=None, stride: int = 1, check: bool = True, field=None
+    robot,
+    policy,
+    policy_params,
+    steps: int,
+    design=None,
+    stride: int = 1,
+    check: bool = True,
+    field=None,
+    scenery: bool = False,
 ):
     """Simulate `robot` under `policy` and return what `animate_rollout` draws.
 
@@ -208,9 +223,13 @@ def record_rollout(
       field: what the policy reads of the grid (`litl.sim.fields`; a run's `algorithm.field`);
         None: the node velocities.
 
+      scenery: also return the scenery's positions (`Robot.scenery`: a sand bed, a pool).
+
     Returns:
-      positions: (steps // stride, n, d) numpy positions after steps stride, 2 stride, ...
+      positions: (steps // stride, n, d) numpy positions of the robot's particles after steps
+        stride, 2 stride, ...
       actuation: (steps // stride, m) numpy actuation applied in those steps.
+      (with `scenery`) (steps // stride, k, d) the scenery's particles' positions.
     """
     from litl.sim import make_rollout, raise_if_unhealthy
 
@@ -224,7 +243,7 @@ def record_rollout(
             robot.body(),
             policy,
             steps,
-            observe=lambda state: state.x,
+            observe=lambda state: state.x,  # the whole scene: the robot's particles, then its scenery's
             remat=False,
             field=field or grid_velocity,
         )
@@ -234,4 +253,7 @@ def record_rollout(
     if check:
         raise_if_unhealthy(trajectory.health, steps)
     keep = slice(stride - 1, None, stride)
-    return (np.asarray(trajectory.observations)[keep], np.asarray(trajectory.actuation)[keep])
+    everything = np.asarray(trajectory.observations)[keep]
+    own = robot.layout.n_particles
+    recorded = (everything[:, :own], np.asarray(trajectory.actuation)[keep])
+    return (*recorded, everything[:, own:]) if scenery else recorded

@@ -28,6 +28,7 @@ from typing import Any
 import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.colors import to_rgba
 from matplotlib.patches import Circle, Rectangle
 
 from litl.errors import UserError
@@ -36,6 +37,8 @@ from litl.robots.layout import Layout
 PASSIVE_COLOR = "#bdbdbd"
 PINNED_COLOR = "#404040"
 WALL_COLOR = "#8c8c8c"
+# The scenery's bodies (`Robot.scenery`) by name: sand, water; anything else in a clay colour.
+SCENERY_COLORS = {"sand": "#d8c078", "water": "#7fb2e5"}
 TARGET_COLOR = "#1a9641"
 # tab10 without green (targets) and grey (passive material, walls).
 ACTUATOR_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf")
@@ -251,6 +254,7 @@ def draw_robot(
     colorbar: bool = False,
     stiffness=None,
     stiffness_range=None,
+    scenery=None,
 ):
     """Draw a 2D robot (rest pose or any state) on a matplotlib Axes.
 
@@ -268,6 +272,8 @@ def draw_robot(
       colorbar: with `actuation` or `stiffness`, add a colour bar of its scale.
       stiffness, stiffness_range: colour by a design's Young's modulus per region instead (see
         `particle_colors`).
+      scenery: (k, 2) positions of the robot's scenery (`Robot.scenery`: a sand bed, a pool);
+        None: its rest positions. Drawn under the robot, one colour per body.
 
     Returns:
       The Axes. Equal aspect, limits the domain. Particle marker sizes follow the Axes' size at the
@@ -313,6 +319,23 @@ def draw_robot(
                     gid="pinned_box",
                 )
             )
+    bodies = getattr(robot, "scenery", ())
+    if bodies:
+        rest = np.concatenate([body.positions for body in bodies])
+        where = rest if scenery is None else np.asarray(scenery, np.float64)
+        colours = np.concatenate(
+            [np.tile(to_rgba(SCENERY_COLORS.get(b.name, "#b0a080")), (b.n_particles, 1)) for b in bodies]
+        )
+        ax.scatter(
+            where[:, 0],
+            where[:, 1],
+            s=_marker_size(ax, particle_side(layout)),
+            c=colours,
+            marker="s",
+            linewidths=0,
+            zorder=1.5,
+            gid="scenery",
+        )
     if colorbar:  # first: it shrinks the Axes, which sets the marker size
         _add_colorbar(ax, actuation, stiffness, stiffness_range)
     ax.scatter(

@@ -77,7 +77,9 @@ def test_steps_stop_a_block_sliding_into_them():
         ("world.angle=0", "world.angle=0.0: must lie in \\(0, 45\\] degrees"),
         ("world.angle=60", "world.angle=60.0: must lie in \\(0, 45\\] degrees"),
         ("world.friction=-1", "world.friction=-1.0: must be a number >= 0"),
-        ("world=sand", "sand"),
+        ("world.friction_angle=95", "world.friction_angle=95.0: must lie in \\(0, 90\\) degrees"),
+        ("world.depth=0", "world.depth=0.0: must be"),
+        ("world.observe=all", "world.observe"),
         ("world.kind=ice", "ice"),
     ],
 )

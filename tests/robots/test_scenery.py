@@ -1,0 +1,138 @@
+"""Worlds with a second body (`world=sand`, `world=water`; `litl.robots.scenery`): the robot's
+particles first and the bed's after them, each with its material; the task and the observers read
+the robot's particles only; the robot's time step holds for the bed."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from litl.app import build_robot, compose
+from litl.config import SettingsError
+from litl.robots.worlds import with_world
+from litl.sim import SimConfigError, check_time_step, make_step, rasterize
+from litl.sim.fields import grid_velocity, mass_weighted_velocity
+from litl.sim.materials import Elastic, Fluid, Sand
+
+
+@pytest.fixture(scope="module")
+def sandy():
+    return build_robot(compose(["world=sand", "+scale=smoke"]))
+
+
+def test_the_bed_follows_the_robot_in_the_scene_with_its_own_material(sandy):
+    flat = build_robot(compose(["+scale=smoke"]))
+    scene = sandy.scene()
+    own, bed = flat.layout.n_particles, sandy.scenery[0].n_particles
+    assert sandy.n_particles == own and scene.state.x.shape == (own + bed, 2)
+    assert sandy.config.materials == (
+        Elastic(flat.config.constitutive_model, flat.config.max_stretch),
+        Sand(30.0),
+    )
+    np.testing.assert_array_equal(np.asarray(scene.body.material), [0] * own + [1] * bed)
+    np.testing.assert_array_equal(np.asarray(scene.body.observed), [True] * own + [False] * bed)
+    # The robot stands on the bed: lifted by its depth; the bed lies on the floor, 1.5x as dense.
+    lift = np.asarray(scene.state.x[:own]) - np.asarray(flat.layout.positions)
+    np.testing.assert_allclose(lift, np.broadcast_to([0.0, 0.04], lift.shape), atol=1e-6)
+    assert float(scene.state.x[own:, 1].max()) < float(scene.state.x[:own, 1].min())
+    np.testing.assert_allclose(np.asarray(scene.design.density[own:]), 1.5 * flat.material.density)
+    # Co-design moves the robot's Young's modulus only; the bed's is fixed.
+    stiff = sandy.design_space.to_design(sandy.design_space.uniform(28.0))
+    np.testing.assert_allclose(np.asarray(stiff.youngs_modulus[:own]), 28.0)
+    np.testing.assert_array_equal(
+        np.asarray(stiff.youngs_modulus[own:]), np.asarray(scene.design.youngs_modulus[own:])
+    )
+    # Its stiffness is matched to the robot's time step (the same dt, a CFL within the limit).
+    assert sandy.config.dt == flat.config.dt
+    check_time_step(sandy.config, scene.body, sandy.design_space.to_design(sandy.design_space.uniform(30.0)))
+
+
+def test_the_task_reads_the_robots_particles_only(sandy):
+    scene = sandy.scene()
+    own = sandy.n_particles
+    moved = scene.state.replace(x=scene.state.x.at[:own, 0].add(0.01).at[own:, 0].add(0.3))
+    total, _ = sandy.task_loss()(scene.state, moved)
+    robot_only, _ = sandy.task_loss()(sandy.own(scene.state), sandy.own(moved))
+    assert float(total) == pytest.approx(float(robot_only))
+    assert float(total) == pytest.approx(-0.01, rel=1e-4)
+
+
+def test_observers_see_the_robots_part_of_the_grid_unless_told_otherwise(sandy):
+    scene = sandy.scene()
+    kicked = scene.state.replace(v=jnp.full_like(scene.state.v, 0.2))
+    grid = rasterize(scene.config, scene.body, kicked, scene.design)
+    seen, everything = np.asarray(grid_velocity(grid)), np.asarray(grid.velocity)
+    sand_only = (np.asarray(grid.mass) > 0) & (np.asarray(grid.observed_mass) == 0)
+    assert sand_only.sum() > 20
+    assert np.all(seen[sand_only] == 0)
+    assert (np.abs(everything[sand_only]).max(axis=-1) > 0.1).sum() > 20  # (the walls' nodes hold 0)
+    robot = np.asarray(grid.observed_mass) > 0
+    np.testing.assert_array_equal(seen[robot], everything[robot])
+    weighted = np.asarray(mass_weighted_velocity(1.0)(grid))
+    np.testing.assert_allclose(
+        weighted[robot], everything[robot] * np.asarray(grid.observed_mass)[robot][:, None], rtol=1e-6
+    )
+    # A step scatters the observed mass too; world.observe=scene shows everything.
+    _, stepped = jax.jit(make_step(scene.config, scene.body))(
+        scene.state, jnp.zeros(sandy.n_actuators), scene.design
+    )
+    assert stepped.observed_mass is not None
+    whole = build_robot(compose(["world=sand", "world.observe=scene", "+scale=smoke"]))
+    assert whole.scene().body.observed is None
+
+
+def test_water_is_a_fluid_as_dense_as_the_robot():
+    wet = build_robot(compose(["world=water", "+scale=smoke"]))
+    assert wet.config.materials[1] == Fluid()
+    np.testing.assert_allclose(
+        np.asarray(wet.scene().design.density[wet.n_particles :]), wet.material.density
+    )
+
+
+def test_a_biped_walks_on_sand_differently_than_on_the_floor():
+    """Open-loop legs on sand: the bed gives under the feet (it is displaced) and the rollout
+    stays finite; the same legs on the floor walk another distance."""
+    distances = {}
+    for world in ("flat", "sand"):
+        robot = build_robot(compose([f"world={world}", "+scale=smoke"]))
+        scene = robot.scene()
+        step = jax.jit(make_step(scene.config, scene.body))
+        state = scene.state
+        for k in range(300):
+            phase = 0.05 * k + jnp.arange(robot.n_actuators) * jnp.pi / 2
+            state, _ = step(state, jnp.sin(phase), scene.design)
+        assert np.all(np.isfinite(np.asarray(state.x)))
+        own = robot.own(state)
+        distances[world] = float(jnp.mean(own.x[:, 0]) - jnp.mean(robot.own(scene.state).x[:, 0]))
+        if world == "sand":
+            bed = np.asarray(state.x[robot.n_particles :]) - np.asarray(scene.state.x[robot.n_particles :])
+            assert np.abs(bed).max() > 0.2 * scene.config.dx  # the feet pushed the sand
+    assert distances["sand"] != pytest.approx(distances["flat"], abs=1e-4)
+
+
+def test_bad_beds_are_refused_before_anything_runs():
+    with pytest.raises(SimConfigError, match="world.depth=0.9.*no room under the ceiling"):
+        build_robot(compose(["world=sand", "world.depth=0.9", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="thinner than one grid cell"):
+        build_robot(compose(["world=sand", "world.depth=0.01", "+scale=smoke"]))
+    with pytest.raises(SettingsError, match="world.density"):
+        compose(["world=sand", "world.density=-1"])
+    robot = build_robot(compose(["+scale=smoke"]))
+    world = compose(["world=sand", "world.depth=0.1"]).world
+    sandy = with_world(robot, world)
+    assert with_world(sandy, world) is sandy  # applied once
+    # A robot placed into its bed is refused.
+    with pytest.raises(SimConfigError, match="start in cells the scenery"):
+        dataclasses.replace(sandy, layout=sandy.layout.translated(np.array([0.0, -0.06])))
+
+
+def test_the_environment_observes_the_robot_on_sand(sandy):
+    import litl.envs
+
+    env, params = litl.envs.make(sandy, hold=4)
+    obs, state = env.reset(jax.random.key(0), params)
+    assert obs.shape == env.observation_space(params).shape
+    obs, state, reward, done, info = env.step(jax.random.key(1), state, jnp.zeros(sandy.n_actuators), params)
+    assert np.all(np.isfinite(np.asarray(obs))) and not bool(info["nonfinite"])
