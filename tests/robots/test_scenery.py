@@ -136,3 +136,12 @@ def test_the_environment_observes_the_robot_on_sand(sandy):
     assert obs.shape == env.observation_space(params).shape
     obs, state, reward, done, info = env.step(jax.random.key(1), state, jnp.zeros(sandy.n_actuators), params)
     assert np.all(np.isfinite(np.asarray(obs))) and not bool(info["nonfinite"])
+
+
+def test_a_3d_robot_gets_a_bed_over_the_whole_floor():
+    robot = build_robot(compose(["robot=quadruped", "world=sand", "world.depth=0.125", "+scale=smoke"]))
+    bed = robot.scenery[0].positions
+    config = robot.config
+    inner = [size - 2 * config.boundary.thickness * config.dx - config.dx for size in config.domain_size]
+    assert np.ptp(bed[:, 0]) >= inner[0] and np.ptp(bed[:, 2]) >= inner[2]  # the floor between the walls
+    assert bed[:, 1].max() < robot.layout.bounds()[0][1]
