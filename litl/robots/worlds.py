@@ -124,7 +124,9 @@ def bed(world, robot: Robot) -> Scenery:
     return Scenery(
         name=kind,
         positions=positions,
-        volume=(dx / 2) ** dim,
+        # The layer's volume shared by its particles: a depth that is not a whole number of cells
+        # spaces the rows further apart than (dx / 2), and the density must still be the stated one.
+        volume=float(np.prod(size)) / len(positions),
         material=material,
         youngs_modulus=density * speed * speed / stiffness,
         poisson_ratio=nu,

@@ -145,3 +145,12 @@ def test_a_3d_robot_gets_a_bed_over_the_whole_floor():
     inner = [size - 2 * config.boundary.thickness * config.dx - config.dx for size in config.domain_size]
     assert np.ptp(bed[:, 0]) >= inner[0] and np.ptp(bed[:, 2]) >= inner[2]  # the floor between the walls
     assert bed[:, 1].max() < robot.layout.bounds()[0][1]
+
+
+def test_the_bed_weighs_its_stated_density_whatever_its_depth():
+    for depth in ("0.04", "0.05"):
+        robot = build_robot(compose(["world=sand", f"world.depth={depth}", "+scale=smoke"]))
+        bed, config = robot.scenery[0], robot.config
+        wall = config.boundary.thickness * config.dx
+        area = (config.domain_size[0] - 2 * wall) * float(depth)
+        assert bed.volume * bed.n_particles == pytest.approx(area, rel=1e-9)
