@@ -11,7 +11,8 @@ friction floor wall under gravity tilted by θ (the walls' own contact). Theory:
 0 when tan θ < μ.
 
 Cost: the biped at dx 1/64 (its 1 s rollout, float32) forward and forward+backward through the
-whole rollout, in the flat world and in `world=slope` / `steps` / `bumps`: compile time apart,
+whole rollout, in the flat world and in `world=slope` / `steps` / `bumps` / `sand` / `water` (the last two: a
+second body of 456 particles under the robot's 581): compile time apart,
 medians of --repeats runs after compiling. The peak resident memory is the process's.
 """
 
@@ -94,7 +95,7 @@ def world_cost(repeats: int) -> None:
 
     print("| world | compile (s) | forward (s) | forward+backward (s) |")
     print("|---|---|---|---|")
-    for world in ("flat", "slope", "steps", "bumps"):
+    for world in ("flat", "slope", "steps", "bumps", "sand", "water"):
         robot = build_robot(compose([f"world={world}"]))
         scene = robot.scene()
         from litl.sim import make_rollout
@@ -102,9 +103,9 @@ def world_cost(repeats: int) -> None:
         n = robot.n_actuators
         rollout = make_rollout(scene.config, scene.body, lambda p, s, g: jax.numpy.tanh(p), robot.steps)
 
-        def loss(p, rollout=rollout, scene=scene):
+        def loss(p, rollout=rollout, scene=scene, robot=robot):
             final, _ = rollout(p, scene.design, scene.state)
-            return jax.numpy.mean(final.x[:, 0])
+            return jax.numpy.mean(robot.own(final).x[:, 0])  # the robot's particles, not its bed's
 
         forward, gradient = jax.jit(loss), jax.jit(jax.grad(loss))
         params = jax.numpy.full((n,), 0.3)

@@ -53,6 +53,9 @@ MODULE = "# my_robots.py"  # tests/robots/test_register.py and tests/test_cli.py
 OBSERVER_MODULE = "# my_observers.py"  # tests/loop/test_observers.py runs it
 ENVIRONMENTS = "import jax, jax.numpy as jnp\nimport litl.envs"
 WORLD = "import dataclasses, math\nimport litl.robots"
+SCENERY = "import dataclasses\nimport numpy as np\nimport litl.robots\nfrom litl.robots.scenery"
+# Indented in a list item of simulating.md; it goes on from the SIMULATING block's namespace.
+MATERIALS = "  import dataclasses\n  from litl.sim.materials"
 
 
 def test_every_block_is_checked():
@@ -71,6 +74,8 @@ def test_every_block_is_checked():
                 OBSERVER_MODULE,
                 ENVIRONMENTS,
                 WORLD,
+                SCENERY,
+                MATERIALS,
             )
             if block.startswith(s)
         ]
@@ -132,6 +137,17 @@ def test_simulating_a_body_walks_and_has_gradients():
     assert float(jnp.abs(ns["d_design"].youngs_modulus).sum()) > 1e-4
 
 
+def test_materials_block_mixes_sand_into_the_guides_body():
+    import textwrap
+
+    ns = run_block(SIMULATING)
+    ((page, block),) = [(p, b) for p, b in BLOCKS if b.startswith(MATERIALS)]
+    exec(compile(textwrap.dedent(block), f"{page}:materials", "exec"), ns)
+    assert ns["sandy"].materials[1].friction_angle == 30.0
+    assert ns["final"].x.shape == ns["state"].x.shape
+    assert bool(jnp.all(jnp.isfinite(ns["final"].x)))
+
+
 def test_observers_block_trains_and_features():
     ns = run_block(OBSERVERS)
     assert ns["trajectory"].snapshots.shape == (20, 64, 64, 2)
@@ -171,6 +187,15 @@ def test_environments_block_steps_64_environments():
     namespace = run_block(ENVIRONMENTS)
     assert namespace["obs"].shape == (64, 8) and namespace["reward"].shape == (64,)
     assert bool(jnp.all(namespace["done"]))  # the episode's last step (then each reset)
+
+
+def test_scenery_block_puts_a_lump_of_clay_beside_the_robot():
+    namespace = run_block(SCENERY)
+    robot, scene = namespace["robot"], namespace["scene"]
+    own = robot.n_particles
+    assert scene.state.x.shape[0] == own + robot.scenery[0].n_particles
+    assert scene.body.material is not None and int(scene.body.material[own:].min()) == 1
+    assert float(scene.state.x[own:, 0].min()) > float(scene.state.x[:own, 0].max())  # ahead of it
 
 
 def test_world_block_builds_a_robot_with_its_colliders():
