@@ -216,6 +216,27 @@ def test_runs_recorded_by_the_config_model_are_labelled_like_older_ones():
     assert runs[3].config["loop.schedule"] == old[3].config["loop.schedule"] == "one_shot"
 
 
+def test_runs_in_worlds_are_labelled_by_the_world_and_its_own_settings():
+    def in_world(**world):
+        config = Config().replace(world=world) if world else Config()
+        settings = {"robot": "biped", "dx": 1 / 32, "steps": 40}
+        return Run(
+            path=None,
+            settings={**settings, "config": json.loads(json.dumps(config.run_settings()))},
+            records=(),
+        )
+
+    runs = [in_world(), in_world(kind="sand"), in_world(kind="slope"), in_world(kind="slope", angle=20.0)]
+    assert labels(runs) == [
+        "vae world=flat",
+        "vae world=sand",
+        "vae world=slope world.angle=10",
+        "vae world=slope world.angle=20",
+    ]
+    # Settings a world does not read do not tell its runs apart.
+    assert labels([in_world(kind="sand"), in_world(kind="sand", angle=20.0)]) == ["vae", "vae"]
+
+
 def test_labels_name_observer_and_ablations():
     runs = [
         fake_run(),

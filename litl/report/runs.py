@@ -44,6 +44,7 @@ IGNORED = ("seed", "seeds", "sim.steps", "observer.kind", "controller.kind")
 CORE_SHORT_NAMES = (
     ("controller.learning_rate", "lr"),
     ("loop.design_learning_rate", "design lr"),
+    ("world.kind", "world"),
 )
 
 
@@ -307,11 +308,36 @@ def _format(value: Any, name: str = "") -> str:
     return str(value)
 
 
+# The world settings each kind of world reads (`litl.robots.worlds`); the others do not tell
+# runs apart. A run without a world section walked in the flat box.
+WORLD_KEYS = {
+    "flat": (),
+    "slope": ("angle", "contact", "friction", "gap"),
+    "steps": ("step_height", "step_length", "contact", "friction", "gap"),
+    "bumps": ("amplitude", "wavelength", "seed", "contact", "friction", "gap"),
+    "sand": ("depth", "friction_angle", "density", "observe"),
+    "water": ("depth", "density", "observe"),
+}
+
+
+def _world(config: dict[str, Any]) -> dict[str, Any]:
+    """`config` with its world reduced to the kind and the keys that kind reads."""
+    kind = config.get("world.kind", "flat")
+    kept = {k: v for k, v in config.items() if not k.startswith("world.")}
+    kept["world.kind"] = kind
+    for key in WORLD_KEYS.get(kind, ()):
+        if key == "friction" and config.get("world.contact") != "friction":
+            continue
+        if f"world.{key}" in config:
+            kept[f"world.{key}"] = config[f"world.{key}"]
+    return kept
+
+
 def _comparable(run: Run) -> dict[str, Any]:
     """A run's settings that may tell it apart from other runs of the same robot (the steps
     used, not `sim.steps`, which may be null: the robot's default)."""
     return {
-        **run.config,
+        **_world(run.config),
         **flatten({"material": run.settings.get("material", {})}),
         **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")},
     }
@@ -334,12 +360,14 @@ def labels(runs: list[Run]) -> list[str]:
         keys = sorted({key for s in settings for key in s}, key=lambda key: names.get(key, key))
         varying = []
         for key in keys:
+            # A world's own setting tells runs apart only among runs in that kind of world.
+            own = key.startswith("world.") and key != "world.kind"
             values = {
-                json.dumps(s.get(key), sort_keys=True)
+                (s.get("world.kind") if own else None, json.dumps(s.get(key), sort_keys=True))
                 for s, i in zip(settings, indices, strict=True)
-                if _relevant(key, runs[i])
+                if _relevant(key, runs[i]) and (not own or key in s)
             }
-            if len(values) > 1:
+            if len({value for _, value in values}) > 1 and len(values) > len({kind for kind, _ in values}):
                 varying.append(key)
         for s, i in zip(settings, indices, strict=True):
             run = runs[i]
