@@ -233,18 +233,17 @@ def sand_wedge(
     `seconds`: below the angle of repose it stands, above it the surface avalanches. `youngs`
     (None: its weight strains it by `SAND_STRAIN_UNDER_WEIGHT`)."""
     height = base * math.tan(math.radians(angle))
-    return release(
-        Sand(friction_angle),
+    return _release_sand(
+        friction_angle,
         wedge(base, angle, n_grid),
         base,
+        height,
         n_grid,
         seconds,
-        youngs=youngs or SAND_DENSITY * GRAVITY * height / SAND_STRAIN_UNDER_WEIGHT,
-        poisson=0.3,
-        density=SAND_DENSITY,
-        floor="sticky",
-        frames=10,
-        dtype=dtype,
+        youngs,
+        10,
+        (1.0, 0.5),
+        dtype,
     )
 
 
@@ -301,9 +300,26 @@ def granular_collapse(
     # Room for twice Lube's run-out (plane-strain simulations run further than channel experiments).
     length = max(1.0, width * (1 + 2 * lube_runout(aspect)[1]) + 0.1)
     domain = (math.ceil(length * 4) / 4, max(0.5, math.ceil((height + 0.1) * 4) / 4))
+    return _release_sand(
+        friction_angle,
+        column(width, height, n_grid),
+        width,
+        height,
+        n_grid,
+        seconds,
+        youngs,
+        frames,
+        domain,
+        dtype,
+    )
+
+
+def _release_sand(friction_angle, positions, width, height, n_grid, seconds, youngs, frames, domain, dtype):
+    """`release` of sand on a sticky (rough) floor, `youngs` None: its weight (`height` tall)
+    strains it by `SAND_STRAIN_UNDER_WEIGHT`."""
     return release(
         Sand(friction_angle),
-        column(width, height, n_grid),
+        positions,
         width,
         n_grid,
         seconds,

@@ -241,6 +241,20 @@ def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
     return list(zip(low - margin, high + margin, strict=True))
 
 
+def _scatter_particles(ax, positions, colors, side: float, zorder: float, gid: str) -> None:
+    """Particles as squares of their own size on the Axes as it is now."""
+    ax.scatter(
+        positions[:, 0],
+        positions[:, 1],
+        s=_marker_size(ax, side),
+        c=colors,
+        marker="s",
+        linewidths=0,
+        zorder=zorder,
+        gid=gid,
+    )
+
+
 def draw_robot(
     robot,
     ax=None,
@@ -326,28 +340,10 @@ def draw_robot(
         colours = np.concatenate(
             [np.tile(to_rgba(SCENERY_COLORS.get(b.name, "#b0a080")), (b.n_particles, 1)) for b in bodies]
         )
-        ax.scatter(
-            where[:, 0],
-            where[:, 1],
-            s=_marker_size(ax, particle_side(layout)),
-            c=colours,
-            marker="s",
-            linewidths=0,
-            zorder=1.5,
-            gid="scenery",
-        )
+        _scatter_particles(ax, where, colours, particle_side(layout), zorder=1.5, gid="scenery")
     if colorbar:  # first: it shrinks the Axes, which sets the marker size
         _add_colorbar(ax, actuation, stiffness, stiffness_range)
-    ax.scatter(
-        positions[:, 0],
-        positions[:, 1],
-        s=_marker_size(ax, particle_side(layout)),
-        c=colors,
-        marker="s",
-        linewidths=0,
-        zorder=2,
-        gid="particles",
-    )
+    _scatter_particles(ax, positions, colors, particle_side(layout), zorder=2, gid="particles")
     if show_targets:
         radius = 2.0 * (config.dx if config is not None else particle_side(layout))
         for group, target in targets.items():
