@@ -186,12 +186,13 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     run_dir = pathlib.Path(run_dir)
     robot = _as_made(build_robot(config), config, run_dir)
     check_observer(config)
-    budget = (
-        f"{config.loop.episodes} x {config.loop.iterations} iterations"
-        if config.baseline.kind == BaselineKind.none
-        else f"{config.baseline.kind.value}, {config.baseline.generations} generations of "
-        f"{config.baseline.population}"
-    )
+    baseline = config.baseline
+    if baseline.kind == BaselineKind.none:
+        budget = f"{config.loop.episodes} x {config.loop.iterations} iterations"
+    elif baseline.kind == BaselineKind.ppo:
+        budget = f"ppo, {baseline.ppo.timesteps} environment steps of {baseline.ppo.hold} simulation steps"
+    else:
+        budget = f"{baseline.kind.value}, {baseline.generations} generations of {baseline.population}"
     say(
         f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "

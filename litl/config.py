@@ -255,12 +255,58 @@ class WorldConfig(Settings):
 
 
 class BaselineKind(enum.StrEnum):
-    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), CMA-ES or
-    OpenAI-ES."""
+    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), CMA-ES,
+    OpenAI-ES or PPO."""
 
     none = "none"
     cmaes = "cmaes"
     openai_es = "openai_es"
+    ppo = "ppo"
+
+
+@dataclass(frozen=True)
+class PPOConfig(Settings):
+    """PPO (rejax) on the robot as an environment (`baseline=ppo`; `litl.baselines.ppo`).
+
+    Attributes:
+      timesteps: environment steps per seed, the budget (each is `hold` simulation steps).
+      envs: environments each seed's agent steps at once.
+      rollout: environment steps each of them takes between two updates.
+      epochs: passes over each update's batch (envs x rollout steps).
+      minibatches: minibatches each pass splits the batch into (must divide envs x rollout).
+      hold: simulation steps an action is held for (one environment step).
+      evaluations: times the policy's mean action is evaluated (one episode each; the curve's
+        points, and the run's checkpoints).
+      gamma: the discount.
+      normalize: running normalization of observations and rewards (rejax's).
+    """
+
+    KEY = "baseline.ppo"
+    timesteps: int = 65536
+    envs: int = 16
+    rollout: int = 64
+    epochs: int = 8
+    minibatches: int = 8
+    hold: int = 8
+    evaluations: int = 20
+    gamma: float = 0.99
+    normalize: bool = True
+
+    def check(self) -> None:
+        self._positive_ints("timesteps", "envs", "rollout", "epochs", "minibatches", "hold", "evaluations")
+        if (self.envs * self.rollout) % self.minibatches:
+            self._invalid(
+                "minibatches",
+                f"must divide an update's batch, envs x rollout = {self.envs * self.rollout}",
+            )
+        if self.timesteps < self.envs * self.rollout:
+            self._invalid(
+                "timesteps",
+                f"is less than one update's batch (envs x rollout = {self.envs * self.rollout}); raise it "
+                f"or lower baseline.ppo.envs / baseline.ppo.rollout",
+            )
+        if not (number(self.gamma) and 0 < self.gamma <= 1):
+            self._invalid("gamma", "must lie in (0, 1]")
 
 
 @dataclass(frozen=True)
@@ -269,13 +315,15 @@ class BaselineConfig(Settings):
     `litl.baselines`).
 
     Attributes:
-      kind: none (litl's loop), cmaes or openai_es (`BaselineKind`).
+      kind: none (litl's loop), cmaes, openai_es or ppo (`BaselineKind`).
       population: candidates per generation (>= 2; even for openai_es, whose samples come in
         mirrored pairs); each costs one forward simulation.
       generations: generations to run (the budget: generations x (population + 1) simulations).
       sigma: the search distribution's (initial) standard deviation on the controller's weights
         and the design variables (Young's modulus in units of its range).
-      learning_rate: OpenAI-ES's Adam step size on the mean (cmaes ignores it).
+      learning_rate: OpenAI-ES's Adam step size on the mean, PPO's Adam step size (cmaes
+        ignores it).
+      ppo: PPO's own settings (`PPOConfig`; only baseline=ppo reads them).
     """
 
     KEY = "baseline"
@@ -284,6 +332,15 @@ class BaselineConfig(Settings):
     generations: int = 50
     sigma: float = 0.1
     learning_rate: float = 0.03
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+
+    def record(self) -> dict[str, Any]:
+        """The keys this kind of baseline reads (what run.json records of it)."""
+        tree = self.to_tree()
+        if self.kind == BaselineKind.ppo:
+            return {key: tree[key] for key in ("kind", "learning_rate", "ppo")}
+        tree.pop("ppo")
+        return tree
 
     def check(self) -> None:
         if isinstance(self.population, bool) or not isinstance(self.population, int) or self.population < 2:
@@ -559,6 +616,7 @@ class Config(Settings):
         names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
         world = ("world",) if self.world.kind != WorldKind.flat else ()
         baseline = ("baseline",) if self.baseline.kind != BaselineKind.none else ()
+        tree["baseline"] = self.baseline.record()
         return {name: tree[name] for name in names + world + baseline}
 
 

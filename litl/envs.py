@@ -69,6 +69,11 @@ class EnvParams:
     max_steps: int = struct.field(pytree_node=False)
     hold: int = struct.field(pytree_node=False)
 
+    @property
+    def max_steps_in_episode(self) -> int:
+        """gymnax's name for `max_steps` (rejax's evaluation reads it)."""
+        return self.max_steps
+
 
 @struct.dataclass
 class EnvState:

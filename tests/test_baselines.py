@@ -1,5 +1,6 @@
-"""`baseline=cmaes` (`litl.baselines`): CMA-ES from evosax on litl's controller and design, from
-the command line to a run directory the report reads; its start is litl's; bad input."""
+"""`litl.baselines`: CMA-ES and OpenAI-ES from evosax on litl's controller and design, PPO from
+rejax on the robot as an environment; from the command line to a run directory the report reads;
+their starts are litl's; a killed run resumes to the same records; bad input."""
 
 import json
 
@@ -24,6 +25,14 @@ def cmaes_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("cmaes")
     config = compose([*SMOKE, "seeds=2", "output.progress=false"])
     return config, run_dir, run_experiment(config, run_dir)
+
+
+def test_the_preset_picks_an_observer_the_baseline_can_use():
+    """baseline=cmaes runs on k-means features unless the command line says otherwise; ppo on the
+    environment's own observation."""
+    assert compose(["baseline=cmaes"]).observer.kind == "kmeans"
+    assert compose(["baseline=cmaes", "observer=none"]).observer.kind == "none"
+    assert compose(["baseline=ppo"]).observer.kind == "none"
 
 
 def test_a_cmaes_run_writes_a_run_directory_the_report_reads(cmaes_run):
@@ -76,7 +85,17 @@ def test_its_start_is_litls_and_it_is_deterministic(cmaes_run, tmp_path):
         ("baseline.population=1", "baseline.population=1: must be an integer >= 2"),
         ("baseline.generations=0", "baseline.generations=0: must be a positive integer"),
         ("baseline.sigma=0", "baseline.sigma=0.0: must be a positive number"),
-        ("baseline=ppo", "ppo"),
+        ("baseline=sac", "sac"),
+        ("baseline=ppo baseline.ppo.timesteps=0", "baseline.ppo.timesteps=0: must be a positive integer"),
+        (
+            "baseline=ppo baseline.ppo.minibatches=3",
+            "baseline.ppo.minibatches=3: must divide an update's batch",
+        ),
+        (
+            "baseline=ppo baseline.ppo.envs=4 baseline.ppo.timesteps=8",
+            "baseline.ppo.timesteps=8: is less than",
+        ),
+        ("baseline=ppo baseline.ppo.gamma=0", "baseline.ppo.gamma=0.0: must lie in"),
         ("baseline=openai_es baseline.population=3", "baseline.population=3: must be even for openai_es"),
         ("baseline.learning_rate=-1", "baseline.learning_rate=-1.0: must be a positive number"),
     ],
@@ -99,3 +118,128 @@ def test_a_learning_observer_is_refused_before_anything_is_written(tmp_path):
         run_experiment(config, tmp_path / "run")
     assert not (tmp_path / "run" / "run.json").exists()
     assert jax.devices()  # the process is still usable
+
+
+def test_a_killed_run_resumes_to_the_records_of_an_uninterrupted_one(cmaes_run, tmp_path, monkeypatch):
+    """Checkpoints after every round (as a long run's are, every few minutes); the process dies in
+    round 2; the same command resumes from the checkpoint and ends with the uninterrupted records."""
+    import litl.baselines.runner as runner
+    from litl.baselines.evolution import EvolutionStrategy
+
+    config, _, done = cmaes_run
+    config = config.replace(baseline=config.baseline.replace(generations=3))
+    whole = run_experiment(config, tmp_path / "whole")
+    monkeypatch.setattr(runner, "CHECKPOINT_SECONDS", 0.0)
+    advance = EvolutionStrategy.advance
+
+    def dies_in_round_2(self, state, round_index):
+        if round_index == 2:
+            raise KeyboardInterrupt("killed")
+        return advance(self, state, round_index)
+
+    monkeypatch.setattr(EvolutionStrategy, "advance", dies_in_round_2)
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(config, tmp_path / "killed")
+    assert len((tmp_path / "killed" / "metrics.jsonl").read_text().splitlines()) == 4
+    monkeypatch.setattr(EvolutionStrategy, "advance", advance)
+    resumed = run_experiment(config, tmp_path / "killed")
+    strip = lambda records: [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
+    assert strip(resumed["records"]) == strip(whole["records"])
+    on_disk = [json.loads(line) for line in (tmp_path / "killed" / "metrics.jsonl").read_text().splitlines()]
+    assert strip(on_disk) == strip(whole["records"])
+    other = config.replace(baseline=config.baseline.replace(sigma=0.2))
+    with pytest.raises(Exception, match="other settings"):
+        run_experiment(other, tmp_path / "killed")
+
+
+PPO_SMOKE = [
+    "baseline=ppo",
+    "+scale=smoke",
+    "seeds=2",
+    "baseline.ppo.timesteps=128",
+    "baseline.ppo.envs=4",
+    "baseline.ppo.rollout=16",
+    "baseline.ppo.minibatches=4",
+    "baseline.ppo.epochs=2",
+    "baseline.ppo.evaluations=2",
+    "output.progress=false",
+]
+
+
+@pytest.fixture(scope="module")
+def ppo_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("ppo")
+    config = compose(PPO_SMOKE)
+    return config, run_dir, run_experiment(config, run_dir)
+
+
+def test_a_ppo_run_writes_a_run_directory_the_report_reads(ppo_run):
+    from litl.report import load_runs
+
+    config, run_dir, done = ppo_run
+    settings = json.loads((run_dir / "run.json").read_text())
+    assert settings["config"]["baseline"] == {
+        "kind": "ppo",
+        "learning_rate": 3e-4,
+        "ppo": {
+            "timesteps": 128,
+            "envs": 4,
+            "rollout": 16,
+            "epochs": 2,
+            "minibatches": 4,
+            "hold": 8,
+            "evaluations": 2,
+            "gamma": 0.99,
+            "normalize": True,
+        },
+    }
+    records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    # Round 0 evaluates the initial policy; two updates of 4 x 16 environment steps follow, one
+    # per round (2 updates / 2 evaluations), each round ending in an evaluation.
+    assert [(r["seed"], r["step"]) for r in records] == [(0, 0), (1, 0), (0, 1), (1, 1), (0, 2), (1, 2)]
+    assert [r["environment_steps"] for r in records] == [0, 0, 64, 64, 128, 128]
+    episode = 2 * 8  # an evaluation; smoke: 20 simulation steps, 2 whole actions of 8
+    steps = [episode, 2 * episode + 64 * 8, 3 * episode + 128 * 8]
+    assert [r["simulated_steps"] for r in records] == [n for n in steps for _ in (0, 1)]
+    assert all(r["task_loss"] is not None for r in records)
+    assert [run.head for run in load_runs(run_dir)] == ["ppo"]
+    assert (run_dir / "checkpoints").is_dir() and json.loads((run_dir / "final.json").read_text()) == done[
+        "final"
+    ]
+
+
+def test_ppos_task_loss_is_minus_the_return_rejax_measures_for_the_mean_action():
+    """A round's task loss is its policy's mean action rolled out: rejax's own evaluation (its
+    loop, gymnax's auto-resetting step) of the same policy gives minus it (10 actions, so that
+    the loss stands well above float32's rounding)."""
+    from rejax.evaluate import evaluate
+
+    from litl.app import build_robot
+    from litl.baselines.ppo import PPOBaseline, _mean_action
+
+    config = compose([*PPO_SMOKE, "sim.steps=80"])
+    method = PPOBaseline(build_robot(config), config)
+    state = method.init()
+    _, figures = method.advance(state, 0)
+    one = jax.tree.map(lambda x: x[1], state)  # seed 1's initial agent
+    algo = method.algo
+
+    def act(obs, rng):
+        obs = algo.normalize_obs(one.obs_rms_state, obs)
+        return jax.numpy.clip(algo.actor.apply(one.actor_ts.params, obs[None], method=_mean_action)[0], -1, 1)
+
+    params = method.env_params
+    assert params.max_steps == 10
+    _, returns = evaluate(act, jax.random.key(0), method.env, params, 1, params.max_steps)
+    assert abs(float(returns[0])) > 1e-5
+    np.testing.assert_allclose(-float(returns[0]), float(figures["task_loss"][1]), rtol=1e-4)
+
+
+def test_ppo_is_deterministic_and_refuses_an_observer(ppo_run, tmp_path):
+    config, _, done = ppo_run
+    again = run_experiment(config, tmp_path / "again")
+    strip = lambda records: [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
+    assert strip(again["records"]) == strip(done["records"])
+    with pytest.raises(SettingsError, match="baseline=ppo observes the environment's particle summary"):
+        run_experiment(compose([*PPO_SMOKE, "observer=kmeans"]), tmp_path / "observed")
+    assert not (tmp_path / "observed" / "run.json").exists()

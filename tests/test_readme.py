@@ -54,6 +54,7 @@ OBSERVER_MODULE = "# my_observers.py"  # tests/loop/test_observers.py runs it
 ENVIRONMENTS = "import jax, jax.numpy as jnp\nimport litl.envs"
 WORLD = "import dataclasses, math\nimport litl.robots"
 SCENERY = "import dataclasses\nimport numpy as np\nimport litl.robots\nfrom litl.robots.scenery"
+PPO_BLOCK = "import jax\nfrom rejax import PPO"
 # Indented in a list item of simulating.md; it goes on from the SIMULATING block's namespace.
 MATERIALS = "  import dataclasses\n  from litl.sim.materials"
 
@@ -76,6 +77,7 @@ def test_every_block_is_checked():
                 WORLD,
                 SCENERY,
                 MATERIALS,
+                PPO_BLOCK,
             )
             if block.startswith(s)
         ]
@@ -187,6 +189,12 @@ def test_environments_block_steps_64_environments():
     namespace = run_block(ENVIRONMENTS)
     assert namespace["obs"].shape == (64, 8) and namespace["reward"].shape == (64,)
     assert bool(jnp.all(namespace["done"]))  # the episode's last step (then each reset)
+
+
+def test_ppo_block_trains_rejax_ppo_on_a_litl_robot():
+    namespace = run_block(PPO_BLOCK)
+    returns = namespace["returns"]
+    assert returns.shape == (3, 128) and bool(jnp.all(jnp.isfinite(returns)))
 
 
 def test_scenery_block_puts_a_lump_of_clay_beside_the_robot():

@@ -1,0 +1,110 @@
+"""Evolution strategies (evosax) on what litl's gradients optimize: the controller network θ and
+the design φ (Young's modulus per region, in units of its range, kept in its bounds).
+
+``cmaes``: CMA-ES with evosax's defaults but the initial step size `baseline.sigma`;
+``openai_es``: OpenAI-ES with mirrored sampling, standard deviation `baseline.sigma` and Adam at
+`baseline.learning_rate` on the mean. One strategy per seed, all seeds and each generation's
+population simulated at once (vmapped); a candidate's fitness is the task loss of one forward
+simulation, the rollout litl differentiates. A generation costs population + 1 simulations (the
+candidates and the strategy's mean, whose loss is the generation's ``task_loss``).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from litl.baselines.runner import Cost
+from litl.config import BaselineKind, Config, SettingsError
+from litl.loop.algorithm import make_algorithm
+from litl.robots.robot import Robot
+
+
+def _strategy(baseline, template):
+    """The evosax strategy and its parameters: CMA-ES with its defaults but the initial step size;
+    OpenAI-ES with mirrored sampling, a constant standard deviation and Adam on the mean."""
+    import optax
+    from evosax.algorithms import CMA_ES, Open_ES
+
+    if baseline.kind == BaselineKind.cmaes:
+        strategy = CMA_ES(population_size=baseline.population, solution=template)
+        params = strategy.default_params
+        return strategy, params.replace(std_init=jnp.asarray(baseline.sigma, params.std_init.dtype))
+    strategy = Open_ES(
+        population_size=baseline.population,
+        solution=template,
+        optimizer=optax.adam(baseline.learning_rate),
+        std_schedule=optax.constant_schedule(baseline.sigma),
+    )
+    return strategy, strategy.default_params
+
+
+class EvolutionStrategy:
+    """`litl.baselines.runner.Method` for cmaes and openai_es: a round is one generation."""
+
+    def __init__(self, robot: Robot, config: Config):
+        baseline = config.baseline
+        self.algorithm = algorithm = make_algorithm(robot, config)
+        if algorithm.observer.learned:
+            raise SettingsError(
+                f"baseline={baseline.kind.value} optimizes the controller and design on fixed features, "
+                f"and observer {config.observer.kind!r} learns; use observer=kmeans or observer=none",
+                "observer.kind",
+            )
+        self.name = baseline.kind.value
+        self.rounds = baseline.generations
+        self.seeds = [config.seed + s for s in range(config.seeds)]
+        self._per_generation = baseline.population + 1
+        starts = [algorithm.init(seed) for seed in self.seeds]
+        # The design in units of its range (0: E_min, 1: E_max), so that one step size suits it
+        # and the controller's weights alike.
+        low, high = robot.design_space.bounds
+        normalized = [(s.design - low) / (high - low) for s in starts]
+        strategy, params = _strategy(baseline, (starts[0].controller, normalized[0]))
+        self._observers = jax.tree.map(lambda *x: jnp.stack(x), *[s.observer for s in starts])
+        self._means = jax.tree.map(
+            lambda *x: jnp.stack(x), *[(s.controller, u) for s, u in zip(starts, normalized, strict=True)]
+        )
+
+        def fitness(solution, observer):
+            controller, design = solution
+            loss, _ = algorithm.simulate(
+                controller, low + jnp.clip(design, 0.0, 1.0) * (high - low), observer
+            )
+            return jnp.where(jnp.isfinite(loss), loss, jnp.inf)
+
+        def generation(key, state, observer):
+            ask_key, tell_key = jax.random.split(key)
+            population, state = strategy.ask(ask_key, state, params)
+            losses = jax.vmap(fitness, in_axes=(0, None))(population, observer)
+            mean_loss = fitness(strategy.get_mean(state), observer)
+            state, _ = strategy.tell(tell_key, population, losses, state, params)
+            finite_mean = jnp.mean(jnp.where(jnp.isfinite(losses), losses, jnp.nan))
+            return state, {
+                "task_loss": mean_loss,
+                "population_best": jnp.min(losses),
+                "population_mean": finite_mean,
+            }
+
+        def advance(keys, states, observers):
+            # Each generation's keys: every seed's key split, the first half kept.
+            keys = jax.vmap(lambda k: jax.random.key_data(jax.random.split(jax.random.wrap_key_data(k))[0]))(
+                keys
+            )
+            one = lambda key, state, observer: generation(jax.random.wrap_key_data(key), state, observer)
+            states, figures = jax.vmap(one)(keys, states, observers)
+            return (keys, states), figures
+
+        self._advance = jax.jit(advance)  # traced once, not at every generation
+        self._init = jax.vmap(lambda key, mean: strategy.init(jax.random.wrap_key_data(key), mean, params))
+
+    def init(self):
+        keys = jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in self.seeds])
+        return keys, self._init(keys, self._means)
+
+    def advance(self, state, round_index: int):
+        keys, states = state
+        return self._advance(keys, states, self._observers)
+
+    def cost(self, round_index: int) -> Cost:
+        return Cost(self._per_generation * self.algorithm.steps, float(self._per_generation))

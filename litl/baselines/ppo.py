@@ -1,0 +1,139 @@
+"""PPO from rejax on the robot as an environment (`litl.envs`): the RL baseline.
+
+The agent is rejax's PPO (a Gaussian policy and a value network, each an MLP of two 64-wide
+layers, swish), on `litl.envs.make(robot, hold=baseline.ppo.hold)`: it observes the particle
+summary (centroid velocity, actuator strains, a clock), acts with the actuators' activations, and
+is rewarded with the task's progress, so an episode's return is minus the task loss. It learns
+the controller only: the design stays at the robot's initial design (PPO has no handle on it).
+
+A round is ``ceil(updates / evaluations)`` PPO updates (each `envs` x `rollout` environment
+steps, `epochs` passes of `minibatches` minibatches), then one evaluation: an episode with the
+policy's mean action, whose task loss is the round's ``task_loss`` (``episode_return`` is the
+training episodes' mean return in the round, stochastic actions). Round 0 is the evaluation of
+the initial policy. Every environment step costs `hold` simulation steps, the evaluation an
+episode's; the network updates simulate nothing and are not counted (their time is in
+``wall_s``). One agent per seed, all seeds vmapped.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+
+from litl.baselines.runner import Cost
+from litl.config import Config, SettingsError
+from litl.robots.robot import Robot
+
+
+def _mean_action(module, obs):
+    return module._action_dist(obs).mean()
+
+
+class PPOBaseline:
+    """`litl.baselines.runner.Method` for ppo."""
+
+    def __init__(self, robot: Robot, config: Config):
+        import litl.envs
+
+        try:
+            from rejax import PPO
+        except ImportError as error:  # pragma: no cover - rejax is a declared dependency
+            raise SettingsError(
+                f"baseline=ppo needs rejax ({error}); install litl with its test or rl extra: "
+                f'pip install -e ".[rl]"',
+                "baseline.kind",
+            ) from error
+        if config.observer.kind != "none":
+            raise SettingsError(
+                f"baseline=ppo observes the environment's particle summary, not an observer's features; "
+                f"observer={config.observer.kind} is not used by it (drop the override, or set "
+                f"observer=none)",
+                "observer.kind",
+            )
+        settings = config.baseline.ppo
+        self.name = "ppo"
+        self.seeds = [config.seed + s for s in range(config.seeds)]
+        env, params = litl.envs.make(robot, hold=settings.hold, dtype=jnp.dtype(config.sim.dtype.value))
+        steps = config.sim.steps or robot.steps
+        params = params.replace(max_steps=max(steps // settings.hold, 1))
+        self.env, self.env_params = env, params
+        batch = settings.envs * settings.rollout
+        updates = settings.timesteps // batch
+        self._per_round = math.ceil(updates / settings.evaluations)
+        self.rounds = 1 + math.ceil(updates / self._per_round)  # round 0: the initial policy
+        self._episode_steps = params.max_steps * settings.hold
+        self._train_steps = self._per_round * batch * settings.hold
+        self._robot_steps = steps
+        algo = PPO.create(
+            env=env,
+            env_params=params,
+            total_timesteps=self._per_round * batch,
+            eval_freq=self._per_round * batch,
+            skip_initial_evaluation=True,
+            num_envs=settings.envs,
+            num_steps=settings.rollout,
+            num_epochs=settings.epochs,
+            num_minibatches=settings.minibatches,
+            learning_rate=config.baseline.learning_rate,
+            gamma=settings.gamma,
+            normalize_observations=settings.normalize,
+            normalize_rewards=settings.normalize,
+            agent_kwargs={"hidden_layer_sizes": (64, 64)},
+        )
+        # rejax's evaluation (128 stochastic episodes) gives way to one episode of the mean action.
+        self.algo = algo = algo.replace(eval_callback=lambda algo, ts, rng: self._episode(algo, ts))
+
+        def evaluated(ts):
+            return ts, self._figures(algo, ts, self._episode(algo, ts))
+
+        def trained(ts):
+            ts, evaluation = algo.train(train_state=ts)
+            return ts, self._figures(algo, ts, evaluation[-1])
+
+        self._evaluated = jax.jit(jax.vmap(evaluated))
+        self._trained = jax.jit(jax.vmap(trained))
+
+    def _episode(self, algo, ts):
+        """Minus the return of one episode with the policy's mean action: its task loss
+        (deterministic: the environment's start is fixed)."""
+        env, params = self.env, self.env_params
+
+        def act(obs):
+            if algo.normalize_observations:
+                obs = algo.normalize_obs(ts.obs_rms_state, obs)
+            mean = algo.actor.apply(ts.actor_ts.params, obs[None], method=_mean_action)[0]
+            return jnp.clip(mean, -1.0, 1.0)
+
+        obs, state = env.reset(jax.random.key(0), params)
+
+        def one(carry, _):
+            obs, state, total, over = carry
+            obs, state, reward, done, _ = env.step_env(jax.random.key(0), state, act(obs), params)
+            total = total + jnp.where(over, 0.0, reward)
+            return (obs, state, total, over | done), None
+
+        start = (obs, state, jnp.zeros((), obs.dtype), jnp.zeros((), bool))
+        (_, _, total, _), _ = jax.lax.scan(one, start, None, length=params.max_steps)
+        return -total
+
+    @staticmethod
+    def _figures(algo, ts, loss):
+        log_std = ts.actor_ts.params["params"]["action_log_std"]
+        return {
+            "task_loss": loss,
+            "environment_steps": ts.global_step,
+            "action_std": jnp.mean(jnp.exp(log_std)),
+        }
+
+    def init(self):
+        keys = jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in self.seeds])
+        return jax.vmap(lambda k: self.algo.init_state(jax.random.wrap_key_data(k)))(keys)
+
+    def advance(self, state, round_index: int):
+        return (self._evaluated if round_index == 0 else self._trained)(state)
+
+    def cost(self, round_index: int) -> Cost:
+        steps = self._episode_steps + (0 if round_index == 0 else self._train_steps)
+        return Cost(steps, steps / self._robot_steps)
