@@ -256,10 +256,11 @@ class WorldConfig(Settings):
 
 class BaselineKind(enum.StrEnum):
     """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), CMA-ES,
-    OpenAI-ES or PPO."""
+    separable CMA-ES, OpenAI-ES or PPO."""
 
     none = "none"
     cmaes = "cmaes"
+    sep_cmaes = "sep_cmaes"
     openai_es = "openai_es"
     ppo = "ppo"
 
@@ -311,11 +312,11 @@ class PPOConfig(Settings):
 
 @dataclass(frozen=True)
 class BaselineConfig(Settings):
-    """A gradient-free baseline instead of litl's loop (`baseline=cmaes|openai_es`;
+    """A gradient-free baseline instead of litl's loop (`baseline=cmaes|sep_cmaes|openai_es|ppo`;
     `litl.baselines`).
 
     Attributes:
-      kind: none (litl's loop), cmaes, openai_es or ppo (`BaselineKind`).
+      kind: none (litl's loop), cmaes, sep_cmaes, openai_es or ppo (`BaselineKind`).
       population: candidates per generation (>= 2; even for openai_es, whose samples come in
         mirrored pairs); each costs one forward simulation.
       generations: generations to run (the budget: generations x (population + 1) simulations).

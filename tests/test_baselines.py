@@ -105,11 +105,16 @@ def test_bad_baseline_settings_are_refused_naming_the_key(override, message):
         compose([*SMOKE, *override.split()])
 
 
-def test_openai_es_runs_and_starts_from_litls_parameters(tmp_path):
-    config = compose([*SMOKE, "baseline=openai_es", "output.progress=false"])
+@pytest.mark.parametrize("kind", ["openai_es", "sep_cmaes"])
+def test_the_other_strategies_run_from_litls_start(kind, cmaes_run, tmp_path):
+    """OpenAI-ES and separable CMA-ES: the same records; generation 0's loss is that of litl's
+    initial parameters, as CMA-ES's is."""
+    config = compose([*SMOKE, f"baseline={kind}", "seeds=2", "output.progress=false"])
     done = run_experiment(config, tmp_path)
-    assert [r["simulations"] for r in done["records"]] == [5, 10]
-    assert json.loads((tmp_path / "run.json").read_text())["config"]["baseline"]["kind"] == "openai_es"
+    assert [r["simulations"] for r in done["records"]] == [5, 5, 10, 10]
+    assert json.loads((tmp_path / "run.json").read_text())["config"]["baseline"]["kind"] == kind
+    first = [r["task_loss"] for r in done["records"][:2]]
+    assert first == [r["task_loss"] for r in cmaes_run[2]["records"][:2]]
 
 
 def test_a_learning_observer_is_refused_before_anything_is_written(tmp_path):

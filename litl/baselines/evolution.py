@@ -1,8 +1,11 @@
 """Evolution strategies (evosax) on what litl's gradients optimize: the controller network θ and
 the design φ (Young's modulus per region, in units of its range, kept in its bounds).
 
-``cmaes``: CMA-ES with evosax's defaults but the initial step size `baseline.sigma`;
-``openai_es``: OpenAI-ES with mirrored sampling, standard deviation `baseline.sigma` and Adam at
+``cmaes``: CMA-ES with evosax's defaults but the initial step size `baseline.sigma` (its
+covariance is n x n for n parameters, decomposed every generation: at the biped's MLP, n = 6152,
+a generation takes seconds per seed on a CPU); ``sep_cmaes``: separable CMA-ES (Ros & Hansen 2008,
+a diagonal covariance: linear in n, the variant meant for networks), likewise; ``openai_es``:
+OpenAI-ES with mirrored sampling, standard deviation `baseline.sigma` and Adam at
 `baseline.learning_rate` on the mean. One strategy per seed, all seeds and each generation's
 population simulated at once (vmapped); a candidate's fitness is the task loss of one forward
 simulation, the rollout litl differentiates. A generation costs population + 1 simulations (the
@@ -21,13 +24,14 @@ from litl.robots.robot import Robot
 
 
 def _strategy(baseline, template):
-    """The evosax strategy and its parameters: CMA-ES with its defaults but the initial step size;
-    OpenAI-ES with mirrored sampling, a constant standard deviation and Adam on the mean."""
+    """The evosax strategy and its parameters: (separable) CMA-ES with its defaults but the initial
+    step size; OpenAI-ES with mirrored sampling, a constant standard deviation and Adam on the mean."""
     import optax
-    from evosax.algorithms import CMA_ES, Open_ES
+    from evosax.algorithms import CMA_ES, Open_ES, Sep_CMA_ES
 
-    if baseline.kind == BaselineKind.cmaes:
-        strategy = CMA_ES(population_size=baseline.population, solution=template)
+    if baseline.kind in (BaselineKind.cmaes, BaselineKind.sep_cmaes):
+        kind = CMA_ES if baseline.kind == BaselineKind.cmaes else Sep_CMA_ES
+        strategy = kind(population_size=baseline.population, solution=template)
         params = strategy.default_params
         return strategy, params.replace(std_init=jnp.asarray(baseline.sigma, params.std_init.dtype))
     strategy = Open_ES(
@@ -40,7 +44,8 @@ def _strategy(baseline, template):
 
 
 class EvolutionStrategy:
-    """`litl.baselines.runner.Method` for cmaes and openai_es: a round is one generation."""
+    """`litl.baselines.runner.Method` for cmaes, sep_cmaes and openai_es: a round is one
+    generation."""
 
     def __init__(self, robot: Robot, config: Config):
         baseline = config.baseline
