@@ -64,7 +64,9 @@ def measure(robot_name: str, observer: str, repeats: int, smoke: bool) -> dict:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--robot", default="biped")
     parser.add_argument("--observers", default="vae,kmeans")
     parser.add_argument("--repeats", type=int, default=5)
@@ -72,13 +74,15 @@ def main(argv=None) -> None:
     parser.add_argument("--json", help="write the rows to this file")
     args = parser.parse_args(argv)
     rows = [measure(args.robot, o, args.repeats, args.smoke) for o in args.observers.split(",")]
-    print("| robot | observer | steps | forward (s) | forward+backward (s) | backward / forward | compile (s) |")
+    print(
+        "| robot | observer | steps | forward (s) | forward+backward (s) | backward / forward | compile (s) |"
+    )
     print("|---|---|---|---|---|---|---|")
     for r in rows:
         compile_s = f"{r['forward_compile_s']} / {r['forward_backward_compile_s']}"
         print(
-            f"| {r['robot']} | {r['observer']} | {r['steps']} | {r['forward_s']} | {r['forward_backward_s']} | "
-            f"{r['backward_in_forward_steps']} | {compile_s} |"
+            f"| {r['robot']} | {r['observer']} | {r['steps']} | {r['forward_s']} | "
+            f"{r['forward_backward_s']} | {r['backward_in_forward_steps']} | {compile_s} |"
         )
     print(f"{jax.devices()[0].platform}, peak RSS {max(r['peak_rss_mb'] for r in rows)} MB")
     if args.json:

@@ -1,0 +1,89 @@
+"""`litl.report.budget`: task loss against simulated steps by the stated counting rule, the steps
+to reach a fraction of the reference's distance, and the verdicts with Holm."""
+
+import json
+
+import numpy as np
+import pytest
+
+from litl.report.budget import compare, curve, main, reaching
+from litl.report.runs import load_run
+
+STEPS = 10  # a rollout's simulation steps
+
+
+def write_run(path, config, records, final):
+    path.mkdir(parents=True)
+    (path / "run.json").write_text(json.dumps({"robot": "biped", "steps": STEPS, "config": config}))
+    (path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    (path / "final.json").write_text(json.dumps([{"seed": s, "task_loss": v} for s, v in final.items()]))
+    return path
+
+
+def litl_run(tmp_path, finals):
+    """2 episodes x 2 iterations of a VAE run (it retrains: one evaluation per episode)."""
+    config = {"observer": {"kind": "vae"}, "loop": {"episodes": 2, "iterations": 2}}
+    records = [
+        {"seed": s, "step": i, "task_loss": finals[s] * (i + 1) / 4, "wall_s": float(i)}
+        for i in range(4)
+        for s in finals
+    ]
+    path = write_run(tmp_path / "litl", config, records, finals)
+    settings = json.loads((path / "run.json").read_text())
+    settings["observer"] = {"learned": True, "reads": ["observer.vae", "loop.learning"]}
+    (path / "run.json").write_text(json.dumps(settings))
+    return path
+
+
+def baseline_run(tmp_path, finals):
+    """A baseline recording its own simulated steps: 3 rounds of 100 steps, task loss falling to
+    the final value at its last round."""
+    config = {"observer": {"kind": "none"}, "baseline": {"kind": "ppo"}}
+    records = [
+        {"seed": s, "step": r, "task_loss": finals[s] * r / 2, "simulated_steps": 100 * (r + 1), "wall_s": r}
+        for r in range(3)
+        for s in finals
+    ]
+    return write_run(tmp_path / "ppo", config, records, finals)
+
+
+def test_a_litl_iteration_counts_forward_and_backward_and_evaluations_count_forward(tmp_path):
+    run = load_run(litl_run(tmp_path, {0: -1.0, 1: -0.9}))
+    c = curve(run, backward_cost=2.0)
+    # iterations 1..4 at 3 x 10 steps each; one evaluation (10 steps) after each episode of 2
+    np.testing.assert_allclose(c.steps[0], [30, 70, 100, 140])
+    assert c.label == "vae" and list(c.final) == [-1.0, -0.9]
+    ppo = curve(load_run(baseline_run(tmp_path, {0: -0.5, 1: -0.4})), backward_cost=2.0)
+    np.testing.assert_allclose(ppo.steps[1], [100, 200, 300])
+    steps, wall, seeds = reaching(ppo, -0.45)  # seed 0 reaches it at its last round, seed 1 never
+    assert (steps, wall, seeds) == (300.0, 2.0, 1)
+
+
+def test_the_reference_beats_a_clearly_worse_method_and_holm_adjusts_upwards(tmp_path):
+    rng = np.random.default_rng(0)
+    good = {s: float(-1.0 + 0.05 * rng.standard_normal()) for s in range(10)}
+    bad = {s: float(-0.5 + 0.05 * rng.standard_normal()) for s in range(10)}
+    curves = [
+        curve(load_run(litl_run(tmp_path, good)), 2.0),
+        curve(load_run(baseline_run(tmp_path, bad)), 2.0),
+    ]
+    rows = compare(curves, "vae")
+    assert rows[0]["budget"] == 140 and rows[1]["budget_x"] == pytest.approx(300 / 140)
+    tests, holm = rows[1]["tests"], rows[1]["holm"]
+    assert tests["end"].verdict == "holds" and holm["end"] >= tests["end"].test_p
+    # at the reference's budget (140 steps) the baseline is at its first round: loss 0
+    assert rows[1]["at_reference_budget"] == pytest.approx(0.0)
+    assert rows[0]["reach"][1.0][2] >= 1
+
+
+def test_the_command_writes_the_plot_and_the_table_and_refuses_a_bad_cost(tmp_path, capsys):
+    litl_dir = litl_run(tmp_path, {0: -1.0, 1: -0.9, 2: -0.95})
+    ppo_dir = baseline_run(tmp_path, {0: -0.5, 1: -0.4, 2: -0.45})
+    out = tmp_path / "out"
+    assert main([f"litl={litl_dir}", str(ppo_dir), "--backward-cost", "2", "--out", str(out)]) == 0
+    assert (out / "budget.png").stat().st_size > 0
+    table = (out / "budget.md").read_text()
+    assert "| litl | 3 |" in table and "| ppo | 3 |" in table and "Reference: litl" in table
+    with pytest.raises(SystemExit):
+        main([str(litl_dir), "--backward-cost", "-1"])
+    assert "a backward step costs >= 0 forward steps" in capsys.readouterr().err
