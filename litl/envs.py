@@ -15,7 +15,11 @@ an environment that is done, as gymnax's does), so RL libraries that take gymnax
   steps (one environment step).
 * **Observation** (``"particles"``, the default): the robot's centroid velocity (d), each
   actuator's mean strain along its fiber (m; |F f| − 1 averaged over the actuator's particles) and
-  (sin, cos) of a clock of period `period`: d + m + 2 values.
+  (sin, cos) of a clock of period `period`: d + m + 2 values. ``"observer"``: a litl observer's
+  features of the grid field after the step (a trained VAE's latent, k-means clusters, ...; its
+  parameters in `params.observer`) and the clock: n_features + 2 values. `from_run` makes the
+  environment of a trained litl run: its robot with the co-designed design, observed by its
+  observer.
 * **Reward**: the task's progress over the step, so that an episode's return equals minus the
   robot's task loss at its end (``loss(initial, final)``, `Robot.task_loss`): the first step's
   reward is −loss(s0, s1), every later one loss(s0, s_t) − loss(s0, s_t+1).
@@ -36,9 +40,10 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from litl.sim import Design, SimState, make_step
+from litl.sim import Design, SimState, make_step, rasterize
+from litl.sim.fields import GridField, full_cell_mass, grid_velocity, mass_weighted_velocity
 
-OBSERVATIONS = ("particles",)
+OBSERVATIONS = ("particles", "observer")
 
 
 @struct.dataclass
@@ -63,11 +68,13 @@ class Box:
 @struct.dataclass
 class EnvParams:
     """What an episode depends on: the robot's design (Young's modulus per particle, ...), the
-    episode's length in environment steps, and the simulation steps each action is held for."""
+    episode's length in environment steps, the simulation steps each action is held for, and the
+    observer's parameters (``observation="observer"``; else None)."""
 
     design: Design
     max_steps: int = struct.field(pytree_node=False)
     hold: int = struct.field(pytree_node=False)
+    observer: Any = None
 
     @property
     def max_steps_in_episode(self) -> int:
@@ -89,14 +96,19 @@ class EnvState:
 class Environment:
     """A litl robot as a gymnax-style environment (see the module docstring); made by `make`."""
 
-    def __init__(self, robot, hold: int, period: float, observation: str, dtype):
+    def __init__(self, robot, hold: int, period: float, observation: str, dtype, observer=None):
         self.robot = robot
         self.hold = hold
         self.period = period
         self.observation = observation
+        self.observer = observer
+        self._observer_params = None  # `make` sets them
         self.dtype = dtype
         scene = robot.scene(dtype)
         self._scene = scene
+        self._field: GridField = grid_velocity
+        if observer is not None and observer.field == "mass_weighted":  # litl.observers.GridField
+            self._field = mass_weighted_velocity(full_cell_mass(scene.config, scene.body, scene.design))
         self._step = make_step(scene.config, scene.body)
         self._loss = robot.task_loss()
         layout = robot.layout
@@ -118,12 +130,15 @@ class Environment:
             design=self._scene.design,
             max_steps=max(self.robot.steps // self.hold, 1),
             hold=self.hold,
+            observer=self._observer_params,
         )
 
     def action_space(self, params: EnvParams | None = None) -> Box:
         return Box(-1.0, 1.0, (self.robot.n_actuators,), self.dtype)
 
     def observation_space(self, params: EnvParams | None = None) -> Box:
+        if self.observer is not None:
+            return Box(-math.inf, math.inf, (self.observer.n_features + 2,), self.dtype)
         size = self.robot.dim + self.robot.n_actuators + 2
         return Box(-math.inf, math.inf, (size,), self.dtype)
 
@@ -133,7 +148,9 @@ class Environment:
         initial = self._scene.state
         loss = self._task_loss(initial, initial)
         state = EnvState(sim=initial, initial=initial, loss=loss, time=jnp.zeros((), jnp.int32))
-        return self._observe(state, initial), state
+        config, body = self._scene.config, self._scene.body
+        field = self._field(rasterize(config, body, initial, params.design)) if self.observer else None
+        return self._observe(state, field, params), state
 
     def step(self, key, state: EnvState, action, params: EnvParams | None = None):
         """One environment step (`hold` simulation steps), then a reset if the episode is done:
@@ -156,13 +173,14 @@ class Environment:
             )
         nonfinite_action = ~jnp.all(jnp.isfinite(action))
         actuation = jnp.clip(jnp.where(jnp.isfinite(action), action, 0.0), -1.0, 1.0).astype(self.dtype)
-        previous = state.sim
 
-        def one(sim, _):
-            sim, _grid = self._step(sim, actuation, params.design)
-            return sim, None
+        def one(carry, _):
+            sim, _field = carry
+            sim, grid = self._step(sim, actuation, params.design)
+            return (sim, self._field(grid) if self.observer else None), None
 
-        sim, _ = jax.lax.scan(one, previous, None, length=params.hold)
+        start = (state.sim, self._field_placeholder() if self.observer else None)
+        (sim, field), _ = jax.lax.scan(one, start, None, length=params.hold)
         loss = self._task_loss(state.initial, sim)
         # The first step's reward counts from 0, so that the return is minus the final loss.
         reward = jnp.where(state.time == 0, -loss, state.loss - loss)
@@ -174,25 +192,40 @@ class Environment:
         done = (time >= params.max_steps) | ~finite | escaped | nonfinite_action
         info = {"nonfinite": ~finite, "nonfinite_action": nonfinite_action, "escaped": escaped, "loss": loss}
         new = EnvState(sim=sim, initial=state.initial, loss=loss, time=time)
-        return self._observe(new, previous), new, jnp.where(finite, reward, 0.0), done, info
+        return self._observe(new, field, params), new, jnp.where(finite, reward, 0.0), done, info
 
     def _task_loss(self, initial: SimState, state: SimState) -> jax.Array:
         total, _ = self._loss(initial, state)
         return jnp.asarray(total, self.dtype)
 
-    def _observe(self, state: EnvState, previous: SimState) -> jax.Array:
+    def _field_placeholder(self) -> jax.Array:
+        config = self._scene.config
+        return jnp.zeros((*config.grid_shape, config.dim), self.dtype)
+
+    def _observe(self, state: EnvState, field, params: EnvParams) -> jax.Array:
         sim = self.robot.own(state.sim)  # the robot's particles (not its scenery's)
-        velocity = jnp.mean(sim.v, axis=0)
-        stretched = jnp.linalg.norm(jnp.einsum("nij,mj->nmi", sim.F, self._fiber), axis=-1) - 1.0  # (n, m)
-        strain = jnp.sum(self._members * stretched, axis=0)
         t = sim.step.astype(self.dtype) * self._scene.config.dt
         phase = 2 * math.pi * t / self.period
-        obs = jnp.concatenate([velocity, strain, jnp.stack([jnp.sin(phase), jnp.cos(phase)])])
+        clock = jnp.stack([jnp.sin(phase), jnp.cos(phase)])
+        if self.observer is not None:
+            features = self.observer.features(params.observer, sim, field).astype(self.dtype)
+            obs = jnp.concatenate([features, clock])
+        else:
+            velocity = jnp.mean(sim.v, axis=0)
+            stretched = jnp.linalg.norm(jnp.einsum("nij,mj->nmi", sim.F, self._fiber), axis=-1) - 1.0
+            strain = jnp.sum(self._members * stretched, axis=0)  # (m,)
+            obs = jnp.concatenate([velocity, strain, clock])
         return jnp.where(jnp.isfinite(obs), obs, 0.0).astype(self.dtype)
 
 
 def make(
-    robot, hold: int = 8, period: float | None = None, observation: str = "particles", dtype=jnp.float32
+    robot,
+    hold: int = 8,
+    period: float | None = None,
+    observation: str = "particles",
+    dtype=jnp.float32,
+    observer=None,
+    observer_params=None,
 ):
     """`(env, env_params)` for `robot` (any litl robot, 2D or 3D, in any world).
 
@@ -200,7 +233,11 @@ def make(
       hold: simulation steps each action is held for (one environment step), >= 1.
       period: the observation's clock period in seconds (default: the MLP controller's,
         `litl.controllers.mlp.CLOCK_PERIOD`).
-      observation: ``"particles"`` (the only one yet: centroid velocity, actuator strains, clock).
+      observation: ``"particles"`` (centroid velocity, actuator strains, clock) or
+        ``"observer"`` (`observer`'s features and the clock).
+      observer: a `litl.observers.Observer` (``observation="observer"``), e.g.
+        ``litl.loop.make_algorithm(robot, config).observer``.
+      observer_params: its parameters (Θ; `params.observer`), e.g. a trained run's.
     """
     from litl.controllers.mlp import CLOCK_PERIOD
     from litl.sim import SimConfigError
@@ -208,12 +245,53 @@ def make(
     if isinstance(hold, bool) or not isinstance(hold, int) or hold < 1:
         raise SimConfigError(f"hold={hold!r}: the simulation steps per action must be a positive integer")
     if observation not in OBSERVATIONS:
+        raise SimConfigError(f"observation={observation!r}: choose one of {list(OBSERVATIONS)}")
+    if (observation == "observer") != (observer is not None) or (observer is None) != (
+        observer_params is None
+    ):
         raise SimConfigError(
-            f"observation={observation!r}: choose one of {list(OBSERVATIONS)} (a learned observer's "
-            f"features are not an environment observation yet)"
+            "observation='observer' needs an observer and its parameters (observer=..., "
+            "observer_params=...; or litl.envs.from_run(run_dir)), and only it takes them"
         )
     period = CLOCK_PERIOD if period is None else period
     if not (isinstance(period, (int, float)) and math.isfinite(period) and period > 0):
         raise SimConfigError(f"period={period!r}: the clock's period must be a positive number of seconds")
-    env = Environment(robot, hold, float(period), observation, dtype)
+    env = Environment(robot, hold, float(period), observation, dtype, observer)
+    env._observer_params = observer_params
     return env, env.default_params
+
+
+def from_run(
+    run_dir, seed: int | None = None, which: str = "final", hold: int = 8, period: float | None = None
+):
+    """`(env, env_params)` of a trained litl run: its robot with the seed's co-designed design,
+    observed by the seed's observer (a trained VAE's latent, k-means clusters, ...) and the clock.
+
+    Args:
+      run_dir: a finished run's directory (`python -m litl` printed it).
+      seed: which seed (default: the run's first).
+      which: ``"final"`` (after the last iteration) or ``"best"`` (each seed's best rollout).
+    """
+    import pathlib
+
+    from litl.loop import load_final, make_algorithm
+    from litl.replay import ReplayError, load_run_config
+
+    run_dir = pathlib.Path(run_dir)
+    if not (run_dir / which).is_dir():
+        raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished (resume it)")
+    robot, config = load_run_config(run_dir)
+    seeds = [config.seed + s for s in range(config.seeds)]
+    seed = seeds[0] if seed is None else seed
+    if seed not in seeds:
+        raise ReplayError(f"seed={seed}: the run has seeds {seeds}")
+    algorithm = make_algorithm(robot, config)
+    if algorithm.observer.n_features == 0:
+        raise ReplayError(f"{run_dir}: its observer ({config.observer.kind}) has no features to observe")
+    saved = jax.tree.map(lambda x: x[seeds.index(seed)], load_final(run_dir, robot, config, which))
+    dtype = jnp.dtype(config.sim.dtype.value)
+    env, params = make(
+        robot, hold, period, "observer", dtype, observer=algorithm.observer, observer_params=saved["observer"]
+    )
+    design = robot.design_space.to_design(saved["design"], dtype)
+    return env, params.replace(design=design)

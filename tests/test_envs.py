@@ -2,6 +2,8 @@
 keys, the return equal to minus the task loss of the same actions rolled out by the simulator,
 gymnax's automatic reset, and bad input."""
 
+import json
+
 import chex
 import jax
 import jax.numpy as jnp
@@ -105,3 +107,44 @@ def test_a_3d_robot_is_an_environment_too():
         jax.random.key(1), state, jnp.zeros(robot.n_actuators), params
     )
     assert obs.shape == (3 + robot.n_actuators + 2,) and np.isfinite(float(reward))
+
+
+def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_task_loss(tmp_path):
+    """`from_run`: the environment of a finished VAE run, observed by the seed's trained VAE (its
+    latent and the clock). With one simulation step per action and the run's own controller
+    acting on the latent, an episode's return is minus the task loss the run recorded for that
+    seed (its final.json): the environment simulates what litl's loop simulated."""
+    from litl.app import compose, run_experiment
+    from litl.loop import load_final, make_algorithm
+    from litl.replay import ReplayError
+
+    run_dir = tmp_path / "run"
+    overrides = ["+scale=smoke", "seeds=2", "sim.steps=100", "loop.episodes=1", "loop.iterations=2"]
+    config = compose([*overrides, "output.progress=false"])
+    run_experiment(config.replace(output=config.output.replace(pictures=False, animation=False)), run_dir)
+    env, params = litl.envs.from_run(run_dir, seed=1, hold=1)
+    robot = env.robot
+    algorithm = make_algorithm(robot, config)
+    assert env.observation_space(params).shape == (algorithm.observer.n_features + 2,)
+    saved = jax.tree.map(lambda x: x[1], load_final(run_dir, robot, config))
+    chex.assert_trees_all_close(params.design, robot.design_space.to_design(saved["design"]), atol=0)
+    params = params.replace(max_steps=algorithm.steps)
+    obs, state = env.reset(jax.random.key(0), params)
+    chex.assert_shape(obs, (algorithm.observer.n_features + 2,))
+
+    def one(carry, _):
+        obs, state = carry
+        features = obs[: algorithm.observer.n_features]
+        time = state.sim.step.astype(obs.dtype) * robot.config.dt
+        action = algorithm.controller.apply(saved["controller"], features, time=time)
+        obs, state, reward, _, _ = env.step_env(jax.random.key(0), state, action, params)
+        return (obs, state), reward
+
+    _, rewards = jax.lax.scan(one, (obs, state), None, length=params.max_steps)
+    recorded = json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
+    assert abs(recorded) > 1e-4  # it moved: the loss stands well above float32 rounding
+    np.testing.assert_allclose(-float(jnp.sum(rewards)), recorded, rtol=1e-3)
+    with pytest.raises(ReplayError, match="seed=5: the run has seeds"):
+        litl.envs.from_run(run_dir, seed=5)
+    with pytest.raises(SimConfigError, match="observation='observer' needs an observer"):
+        litl.envs.make(robot, observation="observer")
