@@ -189,6 +189,7 @@ class WorldKind(enum.StrEnum):
     bumps = "bumps"
     sand = "sand"  # a bed of sand on the floor (a second body, `litl.robots.scenery`)
     water = "water"  # a pool of water on the floor
+    push_box = "push_box"  # a box ahead of the robot, to push to a target
 
 
 class ObservedPart(enum.StrEnum):
@@ -210,7 +211,7 @@ class WorldConfig(Settings):
     ahead of it, as colliders (`litl.sim.colliders`), starting `gap` cells past its front.
 
     Attributes:
-      kind: flat (the empty box), slope, steps or bumps (`WorldKind`).
+      kind: flat (the empty box), slope, steps, bumps, sand, water or push_box (`WorldKind`).
       angle: the slope's angle, degrees in (0, 45].
       step_height, step_length: the stairs' risers and treads (domain units).
       amplitude, wavelength: the bumps' largest height and spacing (domain units).
@@ -220,7 +221,10 @@ class WorldConfig(Settings):
       gap: cells between the robot's front and the terrain's start.
       depth: the sand bed's or the pool's depth (domain units); the robot starts on top of it.
       friction_angle: the sand's friction angle, degrees in (0, 90) (`litl.sim.materials.Sand`).
-      density: the sand's or the water's density, relative to the robot's.
+      density: the sand's, the water's or the box's density, relative to the robot's.
+      box_size: the push_box world's box: its side (domain units).
+      push: how far the box is to be pushed: its target lies `push` ahead of its start (along
+        x; the task is the squared distance of the box's centroid to it at the end).
       observe: what a robot's observers see in a world with a second body: ``robot`` (the grid
         field at the nodes the robot's particles reach) or ``scene`` (the whole field, the sand
         or water included).
@@ -241,8 +245,11 @@ class WorldConfig(Settings):
     friction_angle: float = 30.0
     density: float = 1.5
     observe: ObservedPart = ObservedPart.robot
+    box_size: float = 0.08
+    push: float = 0.1
 
     def check(self) -> None:
+        self._positive_numbers("box_size", "push")
         if not (number(self.angle) and 0 < self.angle <= 45):
             self._invalid("angle", "must lie in (0, 45] degrees")
         self._positive_numbers("step_height", "step_length", "amplitude", "wavelength")

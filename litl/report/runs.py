@@ -317,6 +317,7 @@ WORLD_KEYS = {
     "bumps": ("amplitude", "wavelength", "seed", "contact", "friction", "gap"),
     "sand": ("depth", "friction_angle", "density", "observe"),
     "water": ("depth", "density", "observe"),
+    "push_box": ("box_size", "push", "density", "gap", "observe"),
 }
 
 

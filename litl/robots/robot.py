@@ -83,14 +83,14 @@ class Robot:
         if self.scenery:
             materials = self.config.materials
             for body in self.scenery:
-                if body.material not in materials[1:]:
+                if body.material not in materials:
                     raise SimConfigError(
                         f"robot {self.name!r}: its scenery {body.name!r} is of {body.material}, which its "
                         f"config's materials {materials} lack; build the scene with litl.robots.worlds"
                     )
             check_apart(self.layout.positions, self.scenery, self.config.dx, f"robot {self.name!r}")
         if self.task is not None:
-            make_task_loss(self.task, self.layout)  # validates groups and targets
+            make_task_loss(self.task, self.layout, bodies=self.bodies)  # validates groups and targets
         # The stiffest design allowed must still be stable at this dt, and the softest must hold
         # its actuators without being crushed (co-design drifts to either bound).
         space = self.design_space
@@ -152,6 +152,15 @@ class Robot:
         """The robot's own particles (the scene's first ones; the scenery's follow)."""
         return self.layout.n_particles
 
+    @property
+    def bodies(self) -> dict[str, tuple[int, int]]:
+        """Each scenery body's particles in the scene's state: ``{name: (start, stop)}``."""
+        spans, start = {}, self.layout.n_particles
+        for body in self.scenery:
+            spans[body.name] = (start, start + body.n_particles)
+            start += body.n_particles
+        return spans
+
     def own(self, state: SimState) -> SimState:
         """The robot's part of a scene's state (`state` itself when there is no scenery)."""
         if not self.scenery:
@@ -206,10 +215,9 @@ class Robot:
         task = task or self.task
         if task is None:
             raise SimConfigError(f"robot {self.name!r} has no default task; pass one")
-        loss = make_task_loss(task, self.layout)
         if not self.scenery:
-            return loss
-        return lambda initial, final: loss(self.own(initial), self.own(final))
+            return make_task_loss(task, self.layout)
+        return make_task_loss(task, self.layout, own=self.own, bodies=self.bodies)
 
 
 def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:

@@ -82,7 +82,35 @@ class Reach:
     sign = 1.0  # less is better
 
 
-Term = Locomotion | Reach
+@dataclasses.dataclass(frozen=True)
+class Push:
+    """Bring the centroid of the scenery body `body` (`Robot.scenery`: the push_box world's box)
+    to `target` (squared distance at the end)."""
+
+    body: str
+    target: tuple[float, ...]
+    weight: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "target", tuple(float(t) for t in self.target))
+
+    @property
+    def name(self) -> str:
+        return f"push_{self.body}"
+
+    def validate(self, layout: Layout):
+        if len(self.target) != layout.dim or not np.all(np.isfinite(self.target)):
+            raise LayoutError(f"push target {self.target} must be a finite {layout.dim}D point")
+
+    def raw(self, span: tuple[int, int], initial_state, final_state):
+        start, stop = span
+        centroid = jnp.mean(final_state.x[start:stop], axis=0)
+        return jnp.sum((centroid - jnp.asarray(self.target, centroid.dtype)) ** 2)
+
+    sign = 1.0  # less is better
+
+
+Term = Locomotion | Reach | Push
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,7 +124,7 @@ class Task:
         def __init__(self, terms: Term | Sequence[Term]) -> None: ...
 
     def __post_init__(self):
-        terms = (self.terms,) if isinstance(self.terms, (Locomotion, Reach)) else tuple(self.terms)
+        terms = (self.terms,) if isinstance(self.terms, (Locomotion, Reach, Push)) else tuple(self.terms)
         if not terms:
             raise LayoutError("a task needs at least one term")
         names = [term.name for term in terms]
@@ -112,14 +140,39 @@ class Task:
         """Target point of every reach term, by group name."""
         return {term.group: term.target for term in self.terms if isinstance(term, Reach)}
 
+    @property
+    def push_targets(self) -> dict[str, tuple[float, ...]]:
+        """Target point of every push term, by body name."""
+        return {term.body: term.target for term in self.terms if isinstance(term, Push)}
 
-def make_task_loss(task: Task, layout: Layout):
-    """`loss(initial_state, final_state) -> (total, {term name: raw value})`, pure and jittable."""
+
+def make_task_loss(task: Task, layout: Layout, own=None, bodies: dict[str, tuple[int, int]] | None = None):
+    """`loss(initial_state, final_state) -> (total, {term name: raw value})`, pure and jittable.
+
+    Args:
+      own: ``own(state)``, the robot's part of a scene's state (`Robot.own`), which every term
+        but `Push` reads; None: the states are the robot's alone.
+      bodies: each scenery body's particles in a scene's state, ``{name: (start, stop)}``
+        (`Robot.bodies`), which `Push` terms read.
+    """
+    own = own or (lambda state: state)
+    bodies = bodies or {}
     for term in task.terms:
         term.validate(layout)
+        if isinstance(term, Push) and term.body not in bodies:
+            raise LayoutError(
+                f"task term {term.name!r} moves the body {term.body!r}, which is not in the scene "
+                f"(its other bodies: {sorted(bodies) or 'none'}); push_box worlds have a 'box'"
+            )
 
     def loss(initial_state, final_state):
-        components = {term.name: term.raw(layout, initial_state, final_state) for term in task.terms}
+        robot_initial, robot_final = own(initial_state), own(final_state)
+        components = {
+            term.name: term.raw(bodies[term.body], initial_state, final_state)
+            if isinstance(term, Push)
+            else term.raw(layout, robot_initial, robot_final)
+            for term in task.terms
+        }
         total = sum(term.sign * term.weight * components[term.name] for term in task.terms)
         return total, components
 

@@ -11,12 +11,16 @@ robot starts on the flat floor as in the empty box and meets the terrain when it
 * ``sand``, ``water``: a layer `depth` deep on the whole floor, a second body of Drucker-Prager
   sand (`friction_angle`) or water (`litl.sim.materials`), `density` times the robot's; the robot
   starts on top of it (`bed`). Its observers see the robot's part of the grid unless
-  `observe` is ``scene``.
+  `observe` is ``scene``;
+* ``push_box``: an elastic box of side `box_size` on the floor `gap` cells ahead of the robot,
+  `density` times the robot's; the task becomes the box's: the squared distance of its centroid to
+  a target `push` ahead of its start (`litl.robots.tasks.Push`) at the end.
 
 In 3D the profile is the same for every z. The terrain's contact is `contact` (sticky, as the
 catalog's floors, slip or friction with coefficient `friction`). Its flat part lies under the
 box's floor wall (it holds the same grid nodes), so only the terrain ahead adds contact. The robot
-keeps its own task (distance along x, which on a slope is the distance along it times cos θ).
+keeps its own task (distance along x, which on a slope is the distance along it times cos θ),
+except in push_box.
 
 `with_world(robot, world)` returns the robot in that world (idempotent); the command line's
 `world=` group and `litl.loop.run` call it with `Config.world`.
@@ -31,6 +35,7 @@ import numpy as np
 
 from litl.robots.robot import Robot
 from litl.robots.scenery import Scenery
+from litl.robots.tasks import Push, Task
 from litl.sim.colliders import Collider, HeightField
 from litl.sim.config import SimConfigError, Wall
 from litl.sim.materials import Elastic, Fluid, Sand
@@ -40,7 +45,7 @@ from litl.sim.sampling import sample_box
 def terrain(world, robot: Robot) -> tuple[Collider, ...]:
     """The colliders of `world` (a `litl.config.WorldConfig`) in front of `robot`."""
     kind = str(getattr(world.kind, "value", world.kind))
-    if kind in ("flat", "sand", "water"):
+    if kind in ("flat", "sand", "water", "push_box"):
         return ()
     config = robot.config
     assert config.boundary is not None  # SimConfig sets the default box
@@ -74,7 +79,8 @@ def terrain(world, robot: Robot) -> tuple[Collider, ...]:
             heights.append(floor + world.amplitude * float(rng.uniform()))
     else:
         raise SimConfigError(
-            f"world.kind={kind!r}: unknown world; choose one of flat, slope, steps, bumps, sand, water"
+            f"world.kind={kind!r}: unknown world; choose one of flat, slope, steps, bumps, sand, water, "
+            f"push_box"
         )
     top = config.domain_size[1] - (config.boundary.thickness + 2) * dx
     if max(heights) > top:
@@ -134,6 +140,53 @@ def bed(world, robot: Robot) -> Scenery:
     )
 
 
+def box(world, robot: Robot) -> tuple[Scenery, Task]:
+    """The push_box world's box and the task of pushing it: an elastic cube (square in 2D) of side
+    `world.box_size` on the floor, `world.gap` cells past the robot's front (centred on it in z),
+    2 particles per cell per axis, `world.density` times the robot's density, as stiff as the
+    robot's stiffest design allows (its P-wave speed the robot's fastest: dt unchanged), of the
+    robot's elastic material (one material in the scene: the simulator's single-material step)."""
+    config = robot.config
+    assert config.boundary is not None  # SimConfig sets the default box
+    dx, dim = config.dx, config.dim
+    wall = config.boundary.thickness * dx
+    low, high = robot.layout.bounds()
+    lower = np.array(low, np.float64)
+    lower[0] = high[0] + world.gap * dx + dx
+    lower[1] = wall
+    size = np.full(dim, float(world.box_size))
+    if dim == 3:
+        lower[2] = (low[2] + high[2] - world.box_size) / 2
+    room = config.domain_size[0] - wall - 2 * dx
+    if lower[0] + world.box_size > room or world.box_size < 2 * dx:
+        raise SimConfigError(
+            f"world.box_size={world.box_size:g}, world.gap={world.gap:g}: the box must be at least two "
+            f"cells wide ({2 * dx:g}) and fit between the robot's front ({high[0]:.3g}) and the wall "
+            f"({room:.3g}); choose a smaller box or gap"
+        )
+    if lower[0] + world.box_size + world.push > room:
+        raise SimConfigError(
+            f"world.push={world.push:g}: the target lies beyond the wall (the box would end at "
+            f"{lower[0] + world.box_size + world.push:.3g}, the wall is at {room:.3g}); push it less far"
+        )
+    positions = sample_box(lower, size, dx, per_cell=2)
+    density = world.density * robot.material.density
+    speed, nu = robot.material.max_wave_speed(), 0.3
+    stiffness = (1 - nu) / ((1 + nu) * (1 - 2 * nu))  # (lambda + 2 mu) / E
+    body = Scenery(
+        name="box",
+        positions=positions,
+        volume=float(np.prod(size)) / len(positions),
+        material=Elastic(robot.config.constitutive_model, robot.config.max_stretch),  # the robot's
+        youngs_modulus=density * speed * speed / stiffness,
+        poisson_ratio=nu,
+        density=density,
+    )
+    target = positions.mean(axis=0)
+    target[0] += world.push
+    return body, Task(Push("box", tuple(target)))
+
+
 def with_world(robot: Robot, world) -> Robot:
     """`robot` in `world` (a `litl.config.WorldConfig`): the world's terrain is added to its
     scene's colliders (after its own), or its sand or water under it (the robot lifted onto it);
@@ -155,6 +208,15 @@ def with_world(robot: Robot, world) -> Robot:
             scenery=(layer,),
             observe_scenery=str(getattr(world.observe, "value", world.observe)) == "scene",
         )
+    if kind == "push_box":
+        if robot.scenery:
+            return robot
+        body, task = box(world, robot)
+        config = robot.config
+        own = Elastic(config.constitutive_model, config.max_stretch)
+        config = dataclasses.replace(config, materials=(own,))  # the box is of the robot's material
+        observe = str(getattr(world.observe, "value", world.observe)) == "scene"
+        return dataclasses.replace(robot, config=config, scenery=(body,), task=task, observe_scenery=observe)
     colliders = terrain(world, robot)
     boundary = robot.config.boundary
     assert boundary is not None  # SimConfig sets the default box

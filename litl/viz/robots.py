@@ -341,6 +341,13 @@ def draw_robot(
             [np.tile(to_rgba(SCENERY_COLORS.get(b.name, "#b0a080")), (b.n_particles, 1)) for b in bodies]
         )
         _scatter_particles(ax, where, colours, particle_side(layout), zorder=1.5, gid="scenery")
+        task = getattr(robot, "task", None)
+        pushes = {} if task is None or not show_targets else task.push_targets
+        for target in pushes.values():  # where a pushed body is to go (push_box): a green ring
+            radius = 2.0 * (config.dx if config is not None else particle_side(layout))
+            ring = Circle(tuple(target[:2]), radius, fill=False, edgecolor=TARGET_COLOR, lw=2, zorder=3)
+            ring.set_gid("push_target")
+            ax.add_patch(ring)
     if colorbar:  # first: it shrinks the Axes, which sets the marker size
         _add_colorbar(ax, actuation, stiffness, stiffness_range)
     _scatter_particles(ax, positions, colors, particle_side(layout), zorder=2, gid="particles")

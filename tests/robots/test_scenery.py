@@ -12,7 +12,7 @@ import pytest
 from litl.app import build_robot, compose
 from litl.config import SettingsError
 from litl.robots.worlds import with_world
-from litl.sim import SimConfigError, check_time_step, make_step, rasterize
+from litl.sim import SimConfigError, check_time_step, make_rollout, make_step, rasterize
 from litl.sim.fields import grid_velocity, mass_weighted_velocity
 from litl.sim.materials import Elastic, Fluid, Sand
 
@@ -154,3 +154,61 @@ def test_the_bed_weighs_its_stated_density_whatever_its_depth():
         wall = config.boundary.thickness * config.dx
         area = (config.domain_size[0] - 2 * wall) * float(depth)
         assert bed.volume * bed.n_particles == pytest.approx(area, rel=1e-9)
+
+
+def test_the_push_box_task_is_the_boxs_distance_to_its_target():
+    """world=push_box: an elastic box after the robot's particles, on the floor ahead of it; the
+    task reads the box (the squared distance of its centroid to a target `push` ahead) and not
+    the robot."""
+    robot = build_robot(compose(["world=push_box", "+scale=smoke"]))
+    scene = robot.scene()
+    own = robot.n_particles
+    (box,) = robot.scenery
+    assert robot.bodies == {"box": (own, own + box.n_particles)}
+    start = np.asarray(scene.state.x[own:]).mean(axis=0)
+    assert start[0] > float(scene.state.x[:own, 0].max())  # ahead of the robot
+    (target,) = robot.task.push_targets.values()
+    np.testing.assert_allclose(target, start + [0.1, 0.0], atol=1e-6)
+    loss = robot.task_loss()
+    at_start, parts = loss(scene.state, scene.state)
+    assert float(at_start) == pytest.approx(0.01, rel=1e-4) and set(parts) == {"push_box"}
+    walked = scene.state.replace(x=scene.state.x.at[:own, 0].add(0.05))
+    assert float(loss(scene.state, walked)[0]) == pytest.approx(0.01, rel=1e-4)  # the robot alone: no
+    pushed = scene.state.replace(x=scene.state.x.at[own:, 0].add(0.06))
+    assert float(loss(scene.state, pushed)[0]) == pytest.approx(0.04**2, rel=1e-3)
+    assert robot.config.dt == build_robot(compose(["+scale=smoke"])).config.dt
+
+
+def test_a_robot_thrown_at_the_box_pushes_it_towards_its_target():
+    """Contact between two bodies through the grid: the robot slides into the box and the box
+    moves on along x (the task loss falls), every particle finite; short of the target, the
+    loss's gradient with respect to the robot's start velocity is that of pushing harder
+    (negative). (At 1.0 it pushes the box past the target, and the gradient turns positive.)"""
+    robot = build_robot(compose(["world=push_box", "world.gap=0", "+scale=smoke"]))
+    scene = robot.scene()
+    own = robot.n_particles
+    rollout = make_rollout(scene.config, scene.body, lambda p, s, g: jnp.zeros((robot.n_actuators,)), 150)
+
+    @jax.jit
+    def loss(speed):
+        state = scene.state.replace(v=scene.state.v.at[:own, 0].set(speed))
+        final, _ = rollout(None, scene.design, state)
+        return robot.task_loss()(scene.state, final)[0], final
+
+    (before, (after, state)) = float(loss(0.0)[0]), loss(0.6)
+    assert np.all(np.isfinite(np.asarray(state.x)))
+    moved = float(jnp.mean(state.x[own:, 0]) - jnp.mean(scene.state.x[own:, 0]))
+    assert moved > scene.config.dx and float(after) < before
+    gradient = jax.jit(jax.grad(lambda s: loss(s)[0]))(0.6)
+    assert np.isfinite(float(gradient)) and float(gradient) < 0
+
+
+def test_bad_boxes_are_refused_naming_the_keys():
+    with pytest.raises(SimConfigError, match="world.box_size=0.6.*fit between the robot's front"):
+        build_robot(compose(["world=push_box", "world.box_size=0.6", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="world.box_size=0.04.*at least two cells"):
+        build_robot(compose(["world=push_box", "world.box_size=0.04", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="world.push=0.5: the target lies beyond the wall"):
+        build_robot(compose(["world=push_box", "world.push=0.5", "+scale=smoke"]))
+    with pytest.raises(SettingsError, match="world.push"):
+        compose(["world=push_box", "world.push=0"])
