@@ -17,9 +17,9 @@ an environment that is done, as gymnax's does), so RL libraries that take gymnax
   actuator's mean strain along its fiber (m; |F f| − 1 averaged over the actuator's particles) and
   (sin, cos) of a clock of period `period`: d + m + 2 values. ``"observer"``: a litl observer's
   features of the grid field after the step (a trained VAE's latent, k-means clusters, ...; its
-  parameters in `params.observer`) and the clock: n_features + 2 values. `from_run` makes the
-  environment of a trained litl run: its robot with the co-designed design, observed by its
-  observer.
+  parameters in `params.observer`) and the clock: n_features + 2 values. `litl.replay.environment`
+  makes the environment of a trained litl run: its robot with the co-designed design, observed
+  by its observer.
 * **Reward**: the task's progress over the step, so that an episode's return equals minus the
   robot's task loss at its end (``loss(initial, final)``, `Robot.task_loss`): the first step's
   reward is −loss(s0, s1), every later one loss(s0, s_t) − loss(s0, s_t+1).
@@ -251,7 +251,7 @@ def make(
     ):
         raise SimConfigError(
             "observation='observer' needs an observer and its parameters (observer=..., "
-            "observer_params=...; or litl.envs.from_run(run_dir)), and only it takes them"
+            "observer_params=...; or litl.replay.environment(run_dir)), and only it takes them"
         )
     period = CLOCK_PERIOD if period is None else period
     if not (isinstance(period, (int, float)) and math.isfinite(period) and period > 0):
@@ -259,39 +259,3 @@ def make(
     env = Environment(robot, hold, float(period), observation, dtype, observer)
     env._observer_params = observer_params
     return env, env.default_params
-
-
-def from_run(
-    run_dir, seed: int | None = None, which: str = "final", hold: int = 8, period: float | None = None
-):
-    """`(env, env_params)` of a trained litl run: its robot with the seed's co-designed design,
-    observed by the seed's observer (a trained VAE's latent, k-means clusters, ...) and the clock.
-
-    Args:
-      run_dir: a finished run's directory (`python -m litl` printed it).
-      seed: which seed (default: the run's first).
-      which: ``"final"`` (after the last iteration) or ``"best"`` (each seed's best rollout).
-    """
-    import pathlib
-
-    from litl.loop import load_final, make_algorithm
-    from litl.replay import ReplayError, load_run_config
-
-    run_dir = pathlib.Path(run_dir)
-    if not (run_dir / which).is_dir():
-        raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished (resume it)")
-    robot, config = load_run_config(run_dir)
-    seeds = [config.seed + s for s in range(config.seeds)]
-    seed = seeds[0] if seed is None else seed
-    if seed not in seeds:
-        raise ReplayError(f"seed={seed}: the run has seeds {seeds}")
-    algorithm = make_algorithm(robot, config)
-    if algorithm.observer.n_features == 0:
-        raise ReplayError(f"{run_dir}: its observer ({config.observer.kind}) has no features to observe")
-    saved = jax.tree.map(lambda x: x[seeds.index(seed)], load_final(run_dir, robot, config, which))
-    dtype = jnp.dtype(config.sim.dtype.value)
-    env, params = make(
-        robot, hold, period, "observer", dtype, observer=algorithm.observer, observer_params=saved["observer"]
-    )
-    design = robot.design_space.to_design(saved["design"], dtype)
-    return env, params.replace(design=design)

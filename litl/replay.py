@@ -15,6 +15,9 @@ them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
   the same parameters (`final.json` or `best.json`), which the replay reproduces at the run's
   own step count, and how close the robot came to leaving the grid at each face
   (`escape_margin_cells`, `litl.sim.safety.escape_margins`).
+
+`environment(run_dir, seed)` gives the trained robot as a gymnax-style environment (`litl.envs`),
+observed by its trained observer, for RL code of your own.
 """
 
 from __future__ import annotations
@@ -205,6 +208,44 @@ def replay(
         summary["gait"] = gait_numbers
     out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
     return summary
+
+
+def environment(
+    run_dir, seed: int | None = None, which: str = "final", hold: int = 8, period: float | None = None
+):
+    """`(env, env_params)` of a trained litl run: its robot with the seed's co-designed design,
+    observed by the seed's observer (a trained VAE's latent, k-means clusters, ...) and the clock.
+
+    Args:
+      run_dir: a finished run's directory (`python -m litl` printed it).
+      seed: which seed (default: the run's first).
+      which: ``"final"`` (after the last iteration) or ``"best"`` (each seed's best rollout).
+      hold, period: as in `litl.envs.make`.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from litl.envs import make
+    from litl.loop import load_final, make_algorithm
+
+    run_dir = pathlib.Path(run_dir)
+    if not (run_dir / which).is_dir():
+        raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished (resume it)")
+    robot, config = load_run_config(run_dir)
+    seeds = [config.seed + s for s in range(config.seeds)]
+    seed = seeds[0] if seed is None else seed
+    if seed not in seeds:
+        raise ReplayError(f"seed={seed}: the run has seeds {seeds}")
+    algorithm = make_algorithm(robot, config)
+    if algorithm.observer.n_features == 0:
+        raise ReplayError(f"{run_dir}: its observer ({config.observer.kind}) has no features to observe")
+    saved = jax.tree.map(lambda x: x[seeds.index(seed)], load_final(run_dir, robot, config, which))
+    dtype = jnp.dtype(config.sim.dtype.value)
+    env, params = make(
+        robot, hold, period, "observer", dtype, observer=algorithm.observer, observer_params=saved["observer"]
+    )
+    design = robot.design_space.to_design(saved["design"], dtype)
+    return env, params.replace(design=design)
 
 
 def _components(robot, algorithm, params, steps) -> dict:

@@ -110,8 +110,8 @@ def test_a_3d_robot_is_an_environment_too():
 
 
 def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_task_loss(tmp_path):
-    """`from_run`: the environment of a finished VAE run, observed by the seed's trained VAE (its
-    latent and the clock). With one simulation step per action and the run's own controller
+    """`litl.replay.environment`: the environment of a finished VAE run, observed by the seed's
+    trained VAE (its latent and the clock). With one simulation step per action and the run's own controller
     acting on the latent, an episode's return is minus the task loss the run recorded for that
     seed (its final.json): the environment simulates what litl's loop simulated."""
     from litl.app import compose, run_experiment
@@ -122,7 +122,7 @@ def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_tas
     overrides = ["+scale=smoke", "seeds=2", "sim.steps=100", "loop.episodes=1", "loop.iterations=2"]
     config = compose([*overrides, "output.progress=false"])
     run_experiment(config.replace(output=config.output.replace(pictures=False, animation=False)), run_dir)
-    env, params = litl.envs.from_run(run_dir, seed=1, hold=1)
+    env, params = litl.replay.environment(run_dir, seed=1, hold=1)
     robot = env.robot
     algorithm = make_algorithm(robot, config)
     assert env.observation_space(params).shape == (algorithm.observer.n_features + 2,)
@@ -145,6 +145,6 @@ def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_tas
     assert abs(recorded) > 1e-4  # it moved: the loss stands well above float32 rounding
     np.testing.assert_allclose(-float(jnp.sum(rewards)), recorded, rtol=1e-3)
     with pytest.raises(ReplayError, match="seed=5: the run has seeds"):
-        litl.envs.from_run(run_dir, seed=5)
+        litl.replay.environment(run_dir, seed=5)
     with pytest.raises(SimConfigError, match="observation='observer' needs an observer"):
         litl.envs.make(robot, observation="observer")
