@@ -38,8 +38,14 @@ def help_text() -> str:
     return done.stdout
 
 
-def test_the_four_commands_are_found():
-    assert _commands() == {"litl.claims", "litl.gradcheck", "litl.replay", "litl.report"}
+def test_the_five_commands_are_found():
+    assert _commands() == {
+        "litl.claims",
+        "litl.gradcheck",
+        "litl.replay",
+        "litl.report",
+        "litl.report.budget",
+    }
 
 
 def test_help_lists_every_other_command_with_one_line(help_text):
@@ -48,7 +54,7 @@ def test_help_lists_every_other_command_with_one_line(help_text):
     lines = section[1].split("\n==", 1)[0].strip().splitlines()[1:]
     listed = {}
     for line in lines:
-        match = re.match(r"python -m (litl\.\w+)\b\S*(?: [A-Z_]+)?\s{2,}(\S.{20,})$", line)
+        match = re.match(r"python -m (litl(?:\.\w+)+)\b\S*(?: [A-Z_.]+)*\s{2,}(\S.{20,})$", line)
         assert match, f"not a command and its line: {line!r}"
         listed[match.group(1)] = match.group(2)
     assert set(listed) == _commands()

@@ -204,7 +204,9 @@ def draw(curves: list[Curve], path: pathlib.Path, title: str, level: float = 0.9
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        prog="python -m litl.report.budget",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("runs", nargs="+", help="run directories (LABEL=DIR to name one)")
     parser.add_argument("--backward-cost", type=float, required=True, help="a backward step in forward steps")
