@@ -17,7 +17,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from litl.baselines.runner import Cost
+from litl.baselines.runner import Cost, seed_keys
 from litl.config import BaselineKind, Config, SettingsError
 from litl.loop.algorithm import make_algorithm
 from litl.robots.robot import Robot
@@ -66,10 +66,9 @@ class EvolutionStrategy:
         low, high = robot.design_space.bounds
         normalized = [(s.design - low) / (high - low) for s in starts]
         strategy, params = _strategy(baseline, (starts[0].controller, normalized[0]))
-        self._observers = jax.tree.map(lambda *x: jnp.stack(x), *[s.observer for s in starts])
-        self._means = jax.tree.map(
-            lambda *x: jnp.stack(x), *[(s.controller, u) for s, u in zip(starts, normalized, strict=True)]
-        )
+        stack = lambda trees: jax.tree.map(lambda *leaves: jnp.stack(leaves), *trees)  # seeds first
+        self._observers = stack([s.observer for s in starts])
+        self._means = stack([(s.controller, u) for s, u in zip(starts, normalized, strict=True)])
 
         def fitness(solution, observer):
             controller, design = solution
@@ -104,7 +103,7 @@ class EvolutionStrategy:
         self._init = jax.vmap(lambda key, mean: strategy.init(jax.random.wrap_key_data(key), mean, params))
 
     def init(self):
-        keys = jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in self.seeds])
+        keys = seed_keys(self.seeds)
         return keys, self._init(keys, self._means)
 
     def advance(self, state, round_index: int):

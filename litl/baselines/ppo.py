@@ -22,7 +22,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-from litl.baselines.runner import Cost
+from litl.baselines.runner import Cost, seed_keys
 from litl.config import Config, SettingsError
 from litl.robots.robot import Robot
 
@@ -128,7 +128,7 @@ class PPOBaseline:
         }
 
     def init(self):
-        keys = jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in self.seeds])
+        keys = seed_keys(self.seeds)
         return jax.vmap(lambda k: self.algo.init_state(jax.random.wrap_key_data(k)))(keys)
 
     def advance(self, state, round_index: int):

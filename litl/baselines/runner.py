@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from litl.config import SettingsError
@@ -36,6 +37,11 @@ class Cost:
 
     simulated_steps: int
     simulations: float
+
+
+def seed_keys(seeds: list[int]) -> jax.Array:
+    """(seeds, key data) each seed's PRNG key as raw data, to vmap over (`jax.random.wrap_key_data`)."""
+    return jnp.stack([jax.random.key_data(jax.random.key(seed)) for seed in seeds])
 
 
 class Method(Protocol):

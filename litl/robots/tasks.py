@@ -54,6 +54,22 @@ class Locomotion:
     sign = -1.0  # more is better
 
 
+def _as_point(term) -> None:
+    """Store a term's `target` as a tuple of floats (a frozen dataclass's __post_init__)."""
+    object.__setattr__(term, "target", tuple(float(t) for t in term.target))
+
+
+def _check_point(kind: str, target: tuple[float, ...], dim: int) -> None:
+    if len(target) != dim or not np.all(np.isfinite(target)):
+        raise LayoutError(f"{kind} target {target} must be a finite {dim}D point")
+
+
+def _squared_distance(points, target: tuple[float, ...]):
+    """Squared distance of the centroid of `points` (k, d) to `target`."""
+    centroid = jnp.mean(points, axis=0)
+    return jnp.sum((centroid - jnp.asarray(target, centroid.dtype)) ** 2)
+
+
 @dataclasses.dataclass(frozen=True)
 class Reach:
     """Bring the centroid of particle group `group` to `target` (squared distance at the end)."""
@@ -63,7 +79,7 @@ class Reach:
     weight: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "target", tuple(float(t) for t in self.target))
+        _as_point(self)
 
     @property
     def name(self) -> str:
@@ -71,13 +87,10 @@ class Reach:
 
     def validate(self, layout: Layout):
         layout.group_mask(self.group)
-        if len(self.target) != layout.dim or not np.all(np.isfinite(self.target)):
-            raise LayoutError(f"reach target {self.target} must be a finite {layout.dim}D point")
+        _check_point("reach", self.target, layout.dim)
 
     def raw(self, layout, initial_state, final_state):
-        indices = jnp.asarray(layout.groups[self.group])
-        centroid = jnp.mean(final_state.x[indices], axis=0)
-        return jnp.sum((centroid - jnp.asarray(self.target, centroid.dtype)) ** 2)
+        return _squared_distance(final_state.x[jnp.asarray(layout.groups[self.group])], self.target)
 
     sign = 1.0  # less is better
 
@@ -92,20 +105,18 @@ class Push:
     weight: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "target", tuple(float(t) for t in self.target))
+        _as_point(self)
 
     @property
     def name(self) -> str:
         return f"push_{self.body}"
 
     def validate(self, layout: Layout):
-        if len(self.target) != layout.dim or not np.all(np.isfinite(self.target)):
-            raise LayoutError(f"push target {self.target} must be a finite {layout.dim}D point")
+        _check_point("push", self.target, layout.dim)
 
     def raw(self, span: tuple[int, int], initial_state, final_state):
         start, stop = span
-        centroid = jnp.mean(final_state.x[start:stop], axis=0)
-        return jnp.sum((centroid - jnp.asarray(self.target, centroid.dtype)) ** 2)
+        return _squared_distance(final_state.x[start:stop], self.target)
 
     sign = 1.0  # less is better
 
