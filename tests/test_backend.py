@@ -14,6 +14,7 @@ from litl import backend, provenance
 from litl.backend import DeterminismError, configure, requested_mode
 from litl.loop.run import RunDirectoryError, run
 from tests.loop.tiny import tiny_config, tiny_robot
+from tests.processes import child_environment
 
 # Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
 pytestmark = pytest.mark.gpu
@@ -95,7 +96,7 @@ def test_a_bad_switch_stops_the_command_line_with_one_line_and_writes_nothing(tm
         capture_output=True,
         text=True,
         timeout=120,
-        env={**os.environ, "PYTHONPATH": str(ROOT), "LITL_DETERMINISM": "yes please"},
+        env=child_environment(LITL_DETERMINISM="yes please"),
     )
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [

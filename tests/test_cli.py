@@ -18,6 +18,8 @@ import sys
 
 import pytest
 
+from tests.processes import child_environment
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 QUIET = ["output.pictures=false", "output.animation=false", "output.progress=false"]
 
@@ -27,7 +29,7 @@ def litl_command(args, cwd, timeout=600):
     try:
         importlib.metadata.distribution("litl")
     except importlib.metadata.PackageNotFoundError:
-        env["PYTHONPATH"] = str(ROOT)
+        env = child_environment()
     return subprocess.run(
         [sys.executable, "-m", "litl", *args],
         cwd=cwd,

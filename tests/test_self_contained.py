@@ -2,7 +2,6 @@
 and the reference scene's test runs in a copy of the repository with nothing beside it."""
 
 import json
-import os
 import pathlib
 import re
 import shutil
@@ -10,6 +9,8 @@ import subprocess
 import sys
 
 import pytest
+
+from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # Spelled in pieces so that this file does not match its own patterns.
@@ -77,7 +78,7 @@ def test_a_copy_of_the_repository_alone_runs_the_reference_test(tmp_path):
         shutil.copy2(path, target)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["clone"]
     # The compilation cache conftest.py chose is kept (inherited): same programs, less time.
-    environ = {**os.environ, "PYTHONPATH": str(clone)}
+    environ = child_environment(clone)
     done = subprocess.run(
         [
             sys.executable,

@@ -2,7 +2,6 @@
 (one module) that runs through the CLI, the report and the pictures."""
 
 import json
-import os
 import pathlib
 import re
 import subprocess
@@ -16,6 +15,7 @@ import pytest
 from litl.config import SettingsError
 from litl.loop import observers
 from tests.loop.tiny import tiny_config, tiny_robot
+from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -82,7 +82,7 @@ def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
 
 def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     (tmp_path / "my_observers.py").write_text(PROJECTION_MODULE)
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = child_environment()
     run_dir = tmp_path / "run"
     done = subprocess.run(
         [

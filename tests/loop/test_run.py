@@ -1,7 +1,6 @@
 """End-to-end learning-in-the-loop runs at tiny size: observers, ablations, metrics, resume."""
 
 import json
-import os
 import pathlib
 import signal
 import subprocess
@@ -15,6 +14,7 @@ import pytest
 from litl.config import SettingsError
 from litl.loop.run import RunDirectoryError, load_final, run
 from tests.loop.tiny import tiny_config, tiny_robot
+from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 KEYS = {
@@ -116,7 +116,7 @@ def test_resume_after_sigkill_gives_identical_results(vae_run, tmp_path, determi
     process = subprocess.Popen(
         [sys.executable, "-m", "tests.loop.tiny", str(run_dir), "3"],
         cwd=ROOT,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env=child_environment(),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )

@@ -13,6 +13,7 @@ import pytest
 from litl.loop.checkpoint import CheckpointError, Checkpoints
 from litl.loop.run import RunDirectoryError, RunDirectoryLock, run
 from tests.loop.tiny import tiny_config, tiny_robot
+from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HOLD = """
@@ -30,7 +31,7 @@ def test_a_second_process_on_a_run_directory_stops_at_once_and_touches_nothing(t
         cwd=ROOT,
         stdout=subprocess.PIPE,
         text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env=child_environment(),
     )
     try:
         assert holder.stdout.readline().strip() == "locked"
@@ -48,7 +49,7 @@ def test_a_second_process_on_a_run_directory_stops_at_once_and_touches_nothing(t
             capture_output=True,
             text=True,
             timeout=300,
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            env=child_environment(),
         )
         assert done.returncode == 2, done.stderr[-2000:]
         assert "in use by another litl run" in done.stderr

@@ -15,6 +15,7 @@ from litl.config import Config, SettingsError, seeds_at_once
 from litl.loop.algorithm import make_algorithm, seed_slice, stack_seeds
 from litl.loop.run import run
 from tests.loop.tiny import tiny_config, tiny_robot
+from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -115,12 +116,10 @@ print(json.dumps({"devices": len(placed.sharding.device_set),
 
 
 def test_seeds_spread_over_two_devices_give_the_same_run(tmp_path, x64):
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        "JAX_ENABLE_X64": "1",
-        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2",
-    }
+    env = child_environment(
+        JAX_ENABLE_X64="1",
+        XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2",
+    )
     out = subprocess.run(
         [sys.executable, "-c", SHARDED, str(tmp_path / "two")],
         cwd=ROOT,
