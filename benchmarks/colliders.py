@@ -12,7 +12,8 @@ friction floor wall under gravity tilted by θ (the walls' own contact). Theory:
 
 Cost: the biped at dx 1/64 (its 1 s rollout, float32) forward and forward+backward through the
 whole rollout, in the flat world and in `world=slope` / `steps` / `bumps` / `sand` / `water` (the last two: a
-second body of 456 particles under the robot's 581): compile time apart,
+second body of 456 particles under the robot's 581), and the flat world with a moving slip paddle
+behind the robot (a moving collider: its distance evaluated at every node and step): compile time apart,
 medians of --repeats runs after compiling. The peak resident memory is the process's.
 """
 
@@ -88,6 +89,22 @@ def incline_table() -> None:
         )
 
 
+def _with_paddle(robot):
+    """The robot with a slip paddle behind it moving right at 0.05: what a moving collider (its
+    distance evaluated at every node and step) costs beside the static ones."""
+    import dataclasses
+
+    from litl.sim import Wall
+    from litl.sim.colliders import Box, Collider
+
+    config = robot.config
+    low = (config.boundary.thickness + 1) * config.dx
+    back = float(robot.layout.positions[:, 0].min()) - 2 * config.dx
+    paddle = Collider(Box((low, low), (back, 0.3)), Wall("slip"), velocity=(0.05, 0.0))
+    boundary = dataclasses.replace(config.boundary, colliders=(*config.boundary.colliders, paddle))
+    return dataclasses.replace(robot, config=dataclasses.replace(config, boundary=boundary))
+
+
 def world_cost(repeats: int) -> None:
     import jax
 
@@ -95,8 +112,10 @@ def world_cost(repeats: int) -> None:
 
     print("| world | compile (s) | forward (s) | forward+backward (s) |")
     print("|---|---|---|---|")
-    for world in ("flat", "slope", "steps", "bumps", "sand", "water"):
-        robot = build_robot(compose([f"world={world}"]))
+    for world in ("flat", "slope", "steps", "bumps", "sand", "water", "flat + moving paddle"):
+        robot = build_robot(compose([f"world={world.split()[0]}"]))
+        if "paddle" in world:
+            robot = _with_paddle(robot)
         scene = robot.scene()
         from litl.sim import make_rollout
 

@@ -69,7 +69,15 @@ def draw_run(
         positions, actuation, *scenery = recording
         gif = run_dir / "robot.gif"
         written.append(
-            animate_rollout(robot, positions, actuation, gif, fps=20, scenery=scenery[0] if scenery else None)
+            animate_rollout(
+                robot,
+                positions,
+                actuation,
+                gif,
+                fps=20,
+                scenery=scenery[0] if scenery else None,
+                frame_seconds=robot.config.dt * min(stride, algorithm.steps),
+            )
         )
     return written
 

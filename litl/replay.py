@@ -177,7 +177,10 @@ def replay(
     coloring = {"stiffness": design, "stiffness_range": space.bounds} if color == "stiffness" else {}
     out.parent.mkdir(parents=True, exist_ok=True)
     terrain = scenery[0] if scenery else None
-    animate_rollout(robot, positions, actuation, out, fps=20, scenery=terrain, **coloring)
+    every = robot.config.dt * min(stride, steps)
+    animate_rollout(
+        robot, positions, actuation, out, fps=20, scenery=terrain, frame_seconds=every, **coloring
+    )
     picture = out.with_name(out.stem + "_design.png")
     _draw_design(robot, design, space.bounds, picture, draw)
 

@@ -40,7 +40,7 @@ def _safe_norm(components):
     return jnp.where(positive, jnp.sqrt(jnp.where(positive, sq, 1.0)), 0.0)
 
 
-def apply_boundary(config: SimConfig, velocity):
+def apply_boundary(config: SimConfig, velocity, time=0.0):
     """Enforce walls, colliders and pinned regions on grid velocity components.
 
     Faces are applied in order (axis 0 low, axis 0 high, axis 1 low, ...). On a face's layer, a wall
@@ -50,6 +50,7 @@ def apply_boundary(config: SimConfig, velocity):
     Args:
       config: supplies grid shape and boundary.
       velocity: d arrays (*grid_shape,), the grid velocity components.
+      time: () seconds since the rollout's start, where moving colliders are.
 
     Returns:
       d arrays (*grid_shape,), the constrained velocity components.
@@ -74,7 +75,7 @@ def apply_boundary(config: SimConfig, velocity):
             factor = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
             velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0) for a, v in enumerate(velocity)]
         velocity[axis] = jnp.where(hit, 0.0, normal_speed)
-    velocity = apply_colliders(boundary.colliders, config.grid_shape, config.dx, velocity)
+    velocity = apply_colliders(boundary.colliders, config.grid_shape, config.dx, velocity, time)
     if boundary.pinned_boxes:
         pinned = jnp.asarray(pinned_node_mask(config))
         velocity = [jnp.where(pinned, 0.0, v) for v in velocity]

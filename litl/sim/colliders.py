@@ -11,10 +11,15 @@ only the nodes inside the solid in contact (band 0), the particles resting on it
 that no contact holds, and a block on a 30° slope with μ = 0.8 (tan θ < μ) slid at 0.79 m/s²
 instead of sticking; with a band of one cell it stays (tests/sim/test_colliders.py).
 
-Colliders are static: their distance and normal at the grid nodes are computed once, in numpy
-(float64), when the step is built, so a collider costs the same as a wall. They live in
-`Boundary.colliders` and act after the box's walls (`litl.sim.boundary`); the walls themselves
-stay the box's axis-aligned layers, so scenes without colliders compute exactly what they did.
+A static collider's distance and normal at the grid nodes are computed once, in numpy (float64),
+when the step is built, so it costs the same as a wall. A moving one (`Collider.velocity`: a
+scripted translation at constant velocity from where its shape is given, at time 0) is evaluated
+by the same distance functions in JAX at every step, at the step's end time, and its contact acts
+on the grid velocity relative to its own: a sticky one carries what touches it, a slip or friction
+one pushes without dragging (a paddle, a piston, a moving platform, a conveyor: a floor moving
+along itself). Colliders live in `Boundary.colliders` and act after the box's walls
+(`litl.sim.boundary`); the walls themselves stay the box's axis-aligned layers, so scenes without
+colliders compute exactly what they did.
 
 Shapes (2D and 3D; axis 1 is up):
 
@@ -67,10 +72,10 @@ class HalfPlane:
     def dim(self) -> int:
         return len(self.point)
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        normal = np.asarray(self.normal)
-        phi = (x - np.asarray(self.point)) @ normal
-        return phi, np.broadcast_to(normal, x.shape)
+    def distance(self, x, xp=np):
+        normal = xp.asarray(self.normal, x.dtype)
+        phi = (x - xp.asarray(self.point, x.dtype)) @ normal
+        return phi, xp.broadcast_to(normal, x.shape)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,19 +98,20 @@ class Box:
     def dim(self) -> int:
         return len(self.lower)
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lower, upper = np.asarray(self.lower), np.asarray(self.upper)
+    def distance(self, x, xp=np):
+        lower, upper = xp.asarray(self.lower, x.dtype), xp.asarray(self.upper, x.dtype)
         centre, half = (lower + upper) / 2, (upper - lower) / 2
         offset = x - centre
-        q = np.abs(offset) - half
-        outside = np.maximum(q, 0.0)
-        out_length = np.linalg.norm(outside, axis=-1)
-        phi = out_length + np.minimum(q.max(axis=-1), 0.0)
-        sign = np.where(offset >= 0, 1.0, -1.0)
+        q = xp.abs(offset) - half
+        outside = xp.maximum(q, 0.0)
+        squared = xp.sum(outside * outside, axis=-1)
+        out_length = xp.sqrt(squared)
+        phi = out_length + xp.minimum(q.max(axis=-1), 0.0)
+        sign = xp.where(offset >= 0, 1.0, -1.0)
         # Outside: towards the nearest point; inside: out through the nearest face.
-        nearest_face = np.eye(x.shape[-1])[np.argmax(q, axis=-1)]
-        safe = np.where(out_length > 0, out_length, 1.0)[..., None]
-        normal = np.where((out_length > 0)[..., None], sign * outside / safe, sign * nearest_face)
+        nearest_face = xp.eye(x.shape[-1], dtype=x.dtype)[xp.argmax(q, axis=-1)]
+        safe = xp.where(out_length > 0, out_length, 1.0)[..., None]
+        normal = xp.where((out_length > 0)[..., None], sign * outside / safe, sign * nearest_face)
         return phi, normal
 
 
@@ -125,12 +131,11 @@ class Ball:
     def dim(self) -> int:
         return len(self.center)
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        offset = x - np.asarray(self.center)
-        length = np.linalg.norm(offset, axis=-1)
-        up = np.zeros(x.shape[-1])
-        up[1] = 1.0
-        normal = np.where((length > 0)[..., None], offset / np.where(length > 0, length, 1.0)[..., None], up)
+    def distance(self, x, xp=np):
+        offset = x - xp.asarray(self.center, x.dtype)
+        length = xp.sqrt(xp.sum(offset * offset, axis=-1))
+        up = xp.asarray([float(axis == 1) for axis in range(x.shape[-1])], x.dtype)
+        normal = xp.where((length > 0)[..., None], offset / xp.where(length > 0, length, 1.0)[..., None], up)
         return length - self.radius, normal
 
 
@@ -158,17 +163,16 @@ class HeightField:
         object.__setattr__(self, "xs", xs)
         object.__setattr__(self, "heights", heights)
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xs, heights = np.asarray(self.xs), np.asarray(self.heights)
+    def distance(self, x, xp=np):
+        xs, heights = xp.asarray(self.xs, x.dtype), xp.asarray(self.heights, x.dtype)
         along = x[..., 0]
-        height = np.interp(along, xs, heights)
-        segment = np.clip(np.searchsorted(xs, along) - 1, 0, len(xs) - 2)
+        height = xp.interp(along, xs, heights)
+        segment = xp.clip(xp.searchsorted(xs, along) - 1, 0, len(self.xs) - 2)
         slope = (heights[segment + 1] - heights[segment]) / (xs[segment + 1] - xs[segment])
-        slope = np.where((along < xs[0]) | (along > xs[-1]), 0.0, slope)
-        cosine = 1.0 / np.sqrt(1.0 + slope**2)
-        normal = np.zeros(x.shape)
-        normal[..., 0] = -slope * cosine
-        normal[..., 1] = cosine
+        slope = xp.where((along < xs[0]) | (along > xs[-1]), 0.0, slope)
+        cosine = 1.0 / xp.sqrt(1.0 + slope**2)
+        zero = xp.zeros_like(cosine)
+        normal = xp.stack([-slope * cosine, cosine] + [zero] * (x.shape[-1] - 2), axis=-1)
         return (x[..., 1] - height) * cosine, normal
 
 
@@ -187,13 +191,13 @@ class Union:
     def dim(self) -> int:
         return self.shapes[0].dim
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        results = [shape.distance(x) for shape in self.shapes]
-        phis = np.stack([phi for phi, _ in results])
-        normals = np.stack([np.broadcast_to(normal, x.shape) for _, normal in results])
-        nearest = np.argmin(phis, axis=0)
-        phi = np.take_along_axis(phis, nearest[None], axis=0)[0]
-        normal = np.take_along_axis(normals, nearest[None, ..., None], axis=0)[0]
+    def distance(self, x, xp=np):
+        results = [shape.distance(x, xp) for shape in self.shapes]
+        phis = xp.stack([phi for phi, _ in results])
+        normals = xp.stack([xp.broadcast_to(normal, x.shape) for _, normal in results])
+        nearest = xp.argmin(phis, axis=0)
+        phi = xp.take_along_axis(phis, nearest[None], axis=0)[0]
+        normal = xp.take_along_axis(normals, nearest[None, ..., None], axis=0)[0]
         return phi, normal
 
 
@@ -203,12 +207,15 @@ Shape = HalfPlane | Box | Ball | HeightField | Union
 @dataclasses.dataclass(frozen=True)
 class Collider:
     """A solid `shape`, how grid velocity pointing into it is treated (`contact`: a `Wall`
-    that is sticky, slip or friction with its Coulomb coefficient; not open), and the `band`
-    (cells, >= 0) beyond its surface within which grid nodes are in contact."""
+    that is sticky, slip or friction with its Coulomb coefficient; not open), the `band`
+    (cells, >= 0) beyond its surface within which grid nodes are in contact, and its `velocity`
+    (None: static; d numbers: it translates at that constant velocity, its shape given at time 0,
+    and its contact acts on the grid velocity relative to its own)."""
 
     shape: Shape
     contact: Wall = Wall("sticky")
     band: float = 1.0
+    velocity: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         if not hasattr(self.shape, "distance"):
@@ -221,10 +228,30 @@ class Collider:
         if not (isinstance(self.band, (int, float)) and math.isfinite(self.band) and self.band >= 0):
             raise SimConfigError(f"a collider's band must be a number of cells >= 0, got {self.band!r}")
         object.__setattr__(self, "contact", contact)
+        if self.velocity is not None:
+            velocity = _vector(self.velocity, "Collider.velocity")
+            if len(velocity) != self.shape.dim:
+                raise SimConfigError(
+                    f"a {self.shape.dim}D collider needs a velocity of {self.shape.dim} numbers, got "
+                    f"{self.velocity!r}"
+                )
+            # A zero velocity is a static collider: it takes the static (precomputed) path.
+            object.__setattr__(self, "velocity", velocity if any(velocity) else None)
 
     @property
     def dim(self) -> int:
         return self.shape.dim
+
+    @property
+    def moving(self) -> bool:
+        return self.velocity is not None
+
+    def distance(self, x, time=0.0, xp=np):
+        """(signed distance, outward normal) at positions `x` (..., d) at `time` (seconds from
+        the start; a static collider's are the same at every time)."""
+        if self.velocity is None:
+            return self.shape.distance(x, xp)
+        return self.shape.distance(x - xp.asarray(self.velocity, x.dtype) * time, xp)
 
 
 def node_positions(grid_shape: Sequence[int], dx: float) -> np.ndarray:
@@ -233,22 +260,32 @@ def node_positions(grid_shape: Sequence[int], dx: float) -> np.ndarray:
     return np.stack(axes, axis=-1)
 
 
-def apply_colliders(colliders: Sequence[Collider], grid_shape, dx: float, velocity: list) -> list:
-    """The grid velocity components with every collider's contact applied, in order."""
+def apply_colliders(colliders: Sequence[Collider], grid_shape, dx: float, velocity: list, time=0.0) -> list:
+    """The grid velocity components with every collider's contact applied, in order; moving
+    colliders where they are at `time` (seconds, a scalar that may be traced)."""
     if not colliders:
         return velocity
     nodes = node_positions(grid_shape, dx)
     velocity = list(velocity)
     dtype = velocity[0].dtype
     for collider in colliders:
-        phi, normal = collider.shape.distance(nodes)
-        inside = jnp.asarray(phi <= collider.band * dx)
+        if collider.velocity is not None:
+            phi, normal = collider.distance(jnp.asarray(nodes, dtype), jnp.asarray(time, dtype), jnp)
+            inside = phi <= collider.band * dx
+            own = [jnp.asarray(u, dtype) for u in collider.velocity]
+            # The contact acts on the velocity relative to the collider's.
+            velocity = [v - u for v, u in zip(velocity, own, strict=True)]
+        else:
+            phi, normal = collider.shape.distance(nodes)
+            inside = jnp.asarray(phi <= collider.band * dx)
+            own = None
         n = [jnp.asarray(normal[..., a], dtype) for a in range(len(velocity))]
         normal_speed = sum(v * na for v, na in zip(velocity, n, strict=True))
         hit = inside & (normal_speed < 0)
         contact = collider.contact
         if contact.kind == "sticky":
             velocity = [jnp.where(hit, 0.0, v) for v in velocity]
+            velocity = _add_own(velocity, own)
             continue
         tangential = [v - normal_speed * na for v, na in zip(velocity, n, strict=True)]
         if contact.kind == "friction":
@@ -259,7 +296,13 @@ def apply_colliders(colliders: Sequence[Collider], grid_shape, dx: float, veloci
             factor = jnp.where(positive, reduced / jnp.where(positive, speed, 1.0), 0.0)
             tangential = [t * factor for t in tangential]
         velocity = [jnp.where(hit, t, v) for t, v in zip(tangential, velocity, strict=True)]
+        velocity = _add_own(velocity, own)
     return velocity
+
+
+def _add_own(velocity: list, own: list | None) -> list:
+    """Back from a moving collider's frame (`own`: its velocity; None: a static one)."""
+    return velocity if own is None else [v + u for v, u in zip(velocity, own, strict=True)]
 
 
 def check_clear(colliders: Sequence[Collider], positions: np.ndarray, dx: float, name: str = "robot") -> None:

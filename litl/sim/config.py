@@ -256,6 +256,14 @@ class SimConfig:
         for collider in boundary.colliders:
             if collider.dim != dim:
                 raise SimConfigError(f"a {collider.dim}D collider in a {dim}D grid: {collider}")
+            if collider.velocity is not None:
+                cells = math.hypot(*collider.velocity) * self.dt / self.dx
+                if cells > 0.5:
+                    raise SimConfigError(
+                        f"a collider moving at {collider.velocity} travels {cells:.3g} cells per step "
+                        f"(dt {self.dt:g}, dx {self.dx:g}); at most half a cell, or its contact skips "
+                        "nodes: slow it down or lower dt"
+                    )
         for lo, hi in boundary.pinned_boxes:
             if len(lo) != dim or len(hi) != dim or any(a > b for a, b in zip(lo, hi, strict=True)):
                 raise SimConfigError(f"pinned box {(lo, hi)} must be two {dim}D corners with lo <= hi")
@@ -267,3 +275,9 @@ class SimConfig:
     @property
     def domain_size(self) -> tuple[float, ...]:
         return tuple(n * self.dx for n in self.grid_shape)
+
+    @property
+    def moving_colliders(self) -> bool:
+        """Whether a collider moves (`Collider.velocity`): the step then reads the time."""
+        assert self.boundary is not None  # set in __post_init__
+        return any(c.moving for c in self.boundary.colliders)

@@ -44,8 +44,8 @@ def _grid_velocity(config: SimConfig, grid, particle_mass):
     return [p * inverse_mass for p in momentum], mass
 
 
-def _grid_update(config: SimConfig, grid, particle_mass):
-    """Momentum -> velocity, gravity, boundaries."""
+def _grid_update(config: SimConfig, grid, particle_mass, time=0.0):
+    """Momentum -> velocity, gravity, boundaries (moving colliders where they are at `time`)."""
     velocity, mass = _grid_velocity(config, grid, particle_mass)
     dtype = mass.dtype
     # Gravity only where there is material: particles never read empty nodes, but the observer
@@ -55,7 +55,7 @@ def _grid_update(config: SimConfig, grid, particle_mass):
         v + jnp.where(occupied, jnp.asarray(config.dt * g, dtype), 0) if g else v
         for v, g in zip(velocity, config.gravity, strict=True)
     ]
-    return apply_boundary(config, velocity), mass
+    return apply_boundary(config, velocity, time), mass
 
 
 @struct.dataclass
@@ -133,6 +133,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
     buffering = resolve_buffering(config)
     buffer_fields = buffering != "none"
     buffer_nodes = buffering == "fields_and_nodes"
+    moving = config.moving_colliders
 
     def step(state: Components, actuation, design: Design, token=None):
         field_token = token if buffer_fields else None
@@ -178,7 +179,9 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
             # In reverse mode: the grid's cotangent is formed once before the scatter's transpose
             # gathers it, instead of the grid update's backward being recomputed per read.
             grid = linalg.materialize(grid, node_token)
-        velocity, grid_mass = _grid_update(config, grid, mass)
+        # The grid velocity is the step's end velocity: moving colliders stand where they are then.
+        end_time = (state.step + 1).astype(mass.dtype) * config.dt if moving else 0.0
+        velocity, grid_mass = _grid_update(config, grid, mass, end_time)
         velocity = linalg.stack(velocity, -1)
         if field_token is not None:
             velocity = linalg.materialize(velocity, field_token)
@@ -232,5 +235,6 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
     if extra:
         grid, observed_mass = grid[..., : 1 + config.dim], grid[..., 1 + config.dim]
     velocity, grid_mass = _grid_velocity(config, grid, mass)
-    velocity = apply_boundary(config, velocity)
+    moving = config.moving_colliders
+    velocity = apply_boundary(config, velocity, state.step.astype(mass.dtype) * config.dt if moving else 0.0)
     return Grid(velocity=jnp.stack(velocity, axis=-1), mass=grid_mass, observed_mass=observed_mass)

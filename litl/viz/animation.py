@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from litl.viz.robots import (
     VizError,
+    draw_collider,
     draw_robot,
     draw_robot_3d,
     particle_colors,
@@ -75,6 +76,7 @@ def animate_rollout(
     stiffness=None,
     stiffness_range=None,
     scenery=None,
+    frame_seconds: float | None = None,
 ) -> Path:
     """Write an animation of a rollout to `path` (``.gif`` always, ``.mp4`` with ffmpeg).
 
@@ -97,6 +99,10 @@ def animate_rollout(
         actuation.
       scenery: (T, k, d) positions of the robot's scenery per frame (`record_rollout(...,
         scenery=True)`), drawn under it (2D); None: none drawn.
+      frame_seconds: simulated seconds between consecutive `positions` (the time step times
+        `record_rollout`'s stride); frame k is at (k + 1) x that. Moving colliders
+        (`Collider.velocity`, 2D) are drawn where they are at each frame; None: the time step,
+        as `record_rollout` records with its default stride 1.
 
     Returns:
       The path written.
@@ -114,6 +120,12 @@ def animate_rollout(
         raise VizError(f"stride must be a positive integer, got {stride!r}")
     if not fps > 0:
         raise VizError(f"fps must be positive, got {fps!r}")
+    if frame_seconds is not None and not frame_seconds > 0:
+        raise VizError(f"frame_seconds must be positive, got {frame_seconds!r}")
+    moving = (
+        [c for c in config.boundary.colliders if c.moving] if config is not None and layout.dim == 2 else []
+    )
+    frame_seconds = frame_seconds or (config.dt if config is not None else 0.0)
     writer = _writer(suffix, fps)
     frames = range(0, len(positions), stride)
 
@@ -143,6 +155,7 @@ def animate_rollout(
             show_targets,
             colorbar=colorbar,
             scenery=None if scenery is None else scenery[0],
+            time=frame_seconds,
             **coloring,
         )
     terrain = next((a for a in ax.get_children() if a.get_gid() == "scenery"), None)
@@ -155,6 +168,7 @@ def animate_rollout(
     crosses = [a for a in ax.get_children() if a.get_gid() == "reach_group"]
     groups = [layout.groups[g] for g in resolve(robot)[3]] if show_targets else []
     title = ax.set_title("")
+    drawn = [a for a in ax.get_children() if a.get_gid() == "moving_collider"]
 
     def update(frame):
         x = positions[frame]
@@ -169,6 +183,14 @@ def animate_rollout(
                 terrain.set_offsets(scenery[frame])
             for cross, group in zip(crosses, groups, strict=True):
                 cross.set_data(*x[group].mean(axis=0)[:, None])
+            if moving:  # redrawn where they are at this frame's time
+                for artist in drawn:
+                    artist.remove()
+                drawn[:] = [
+                    a
+                    for c in moving
+                    if (a := draw_collider(ax, c, config, (frame + 1) * frame_seconds)) is not None
+                ]
         particles.set_facecolor(colors)
         title.set_text(f"{name}: frame {frame + 1} / {len(positions)}")
         return [particles, *crosses, title]

@@ -219,16 +219,20 @@ def _wall_rectangles(config) -> list[tuple[tuple[float, float], float, float]]:
     return bands
 
 
-def _draw_collider(ax, collider, config, resolution: int = 256) -> None:
-    """A 2D collider's solid (signed distance < 0), filled in the walls' colour."""
+def draw_collider(ax, collider, config, time: float = 0.0, resolution: int = 256):
+    """A 2D collider's solid (signed distance < 0) where it is at `time`, filled in the walls'
+    colour; the drawn artist (None in 3D, or where the solid is outside the domain)."""
     if config.dim != 2:
-        return
+        return None
     width, height = config.domain_size
     xs, ys = np.linspace(0, width, resolution), np.linspace(0, height, resolution)
     grid = np.stack(np.meshgrid(xs, ys, indexing="xy"), axis=-1)
-    phi, _ = collider.shape.distance(grid)
+    phi, _ = collider.distance(grid, time)
+    if phi.min() >= 0:
+        return None
     filled = ax.contourf(xs, ys, phi, levels=[phi.min() - 1.0, 0.0], colors=[WALL_COLOR], zorder=1)
-    filled.set_gid("collider")
+    filled.set_gid("moving_collider" if collider.moving else "collider")
+    return filled
 
 
 def _view_limits(layout: Layout, positions: np.ndarray, config, targets):
@@ -269,6 +273,7 @@ def draw_robot(
     stiffness=None,
     stiffness_range=None,
     scenery=None,
+    time: float = 0.0,
 ):
     """Draw a 2D robot (rest pose or any state) on a matplotlib Axes.
 
@@ -288,6 +293,8 @@ def draw_robot(
         `particle_colors`).
       scenery: (k, 2) positions of the robot's scenery (`Robot.scenery`: a sand bed, a pool);
         None: its rest positions. Drawn under the robot, one colour per body.
+      time: seconds since the rollout's start: where moving colliders (`Collider.velocity`)
+        are drawn.
 
     Returns:
       The Axes. Equal aspect, limits the domain. Particle marker sizes follow the Axes' size at the
@@ -318,7 +325,7 @@ def draw_robot(
                 Rectangle(corner, width, height, facecolor=WALL_COLOR, edgecolor="none", zorder=1, gid="wall")
             )
         for collider in config.boundary.colliders:
-            _draw_collider(ax, collider, config)
+            draw_collider(ax, collider, config, time)
         for lo, hi in config.boundary.pinned_boxes:
             ax.add_patch(
                 Rectangle(

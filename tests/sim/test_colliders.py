@@ -191,3 +191,112 @@ def test_a_scene_without_colliders_computes_what_it_did():
     np.testing.assert_array_equal(
         apply_boundary(config, velocity)[0][inside_walls], velocity[0][inside_walls]
     )
+
+
+# Moving colliders: a scripted translation at constant velocity, contact relative to it.
+
+
+@pytest.mark.parametrize(
+    "shape",
+    [
+        HalfPlane((0.1, 0.2), (-0.3, 1.0)),
+        Box((0.2, 0.1), (0.5, 0.3)),
+        Ball((0.4, 0.6), 0.15),
+        HeightField((0.0, 0.3, 0.6, 1.0), (0.1, 0.2, 0.15, 0.3)),
+        Union((Ball((0.4, 0.6), 0.15), Box((0.2, 0.1), (0.5, 0.3)))),
+        Box((0.2, 0.1, 0.3), (0.5, 0.3, 0.6)),
+        HeightField((0.0, 0.5, 1.0), (0.1, 0.3, 0.2), dim=3),
+    ],
+)
+def test_a_shapes_distance_in_jax_is_its_distance_in_numpy(shape):
+    """Moving colliders are evaluated in JAX at every step, static ones once in numpy: the two
+    give one distance and normal (away from the kinks and faces where the nearest feature ties)."""
+    points = np.random.default_rng(0).uniform(0.0, 1.0, (200, shape.dim))
+    phi, normal = shape.distance(points)
+    phi_jax, normal_jax = shape.distance(jnp.asarray(points, jnp.float32), jnp)
+    chex.assert_trees_all_close((phi_jax, normal_jax), (phi, normal), atol=1e-5, rtol=1e-5)
+    moving = Collider(shape, velocity=(0.5,) + (0.0,) * (shape.dim - 1))
+    shifted = points + np.array(moving.velocity) * 0.2
+    chex.assert_trees_all_close(moving.distance(shifted, 0.2), shape.distance(points), atol=1e-12)
+
+
+def _carried(contact, seconds=0.3, speed=0.5):
+    """The block's centroid displacement along x on a floor that moves along itself at `speed`."""
+    floor = Collider(HalfPlane((0.0, 0.15), (0.0, 1.0)), contact, velocity=(speed, 0.0))
+    config, body, design, state = block(
+        n_grid=32,
+        lower=0.16,
+        size=0.15,
+        youngs=1000.0,
+        n_actuators=0,
+        boundary=Boundary.box(2, colliders=[floor]),
+    )
+    steps = int(seconds / config.dt)
+    rollout = jax.jit(make_rollout(config, body, lambda p, s, g: jnp.zeros((0,)), steps))
+    final, trajectory = rollout(None, design, state)
+    return float(jnp.mean(final.x[:, 0]) - jnp.mean(state.x[:, 0])), seconds
+
+
+def test_a_sticky_conveyor_carries_a_block_and_a_slip_one_slides_under_it():
+    """A floor moving along itself does not move in space: only the contact relative to its
+    velocity tells it moves. Sticky, the block rides at the floor's speed; slip, it stays."""
+    moved, seconds = _carried(Wall("sticky"))
+    assert moved == pytest.approx(0.5 * seconds, rel=0.15)
+    slipped, _ = _carried(Wall("slip"))
+    assert abs(slipped) < 0.02 * 0.5 * seconds
+
+
+def test_a_moving_paddle_pushes_a_block_ahead_of_it():
+    """A slip paddle moving right at 0.4 reaches a block resting on the floor and pushes it: at
+    the end the block is ahead of the paddle's face and has moved with it."""
+    paddle = Collider(Box((0.05, 0.1), (0.15, 0.3)), Wall("slip"), velocity=(0.4, 0.0))
+    config, body, design, state = block(
+        n_grid=32,
+        lower=0.2,
+        size=0.12,
+        youngs=1000.0,
+        n_actuators=0,
+        boundary=Boundary.box(2, floor="slip", colliders=[paddle]),
+    )
+    config_steps = int(0.4 / config.dt)
+    rollout = jax.jit(make_rollout(config, body, lambda p, s, g: jnp.zeros((0,)), config_steps))
+    final, _ = rollout(None, design, state)
+    face = 0.15 + 0.4 * config_steps * config.dt
+    assert float(jnp.min(final.x[:, 0])) > face - config.dx  # not run through
+    assert float(jnp.mean(final.x[:, 0]) - jnp.mean(state.x[:, 0])) > 0.5 * (face - 0.2)
+    static = Collider(paddle.shape, Wall("slip"))
+    assert Collider(paddle.shape, Wall("slip"), velocity=(0.0, 0.0)) == static  # zero: static
+
+
+def test_gradients_through_a_moving_friction_collider_match_central_differences(x64):
+    pusher = Collider(Ball((0.2, 0.3), 0.08), Wall("friction", 0.3), velocity=(0.6, -0.2))
+    config, body, design, state = block(
+        n_grid=16, lower=0.35, dtype=jnp.float64, boundary=Boundary.box(2, colliders=[pusher])
+    )
+    rollout = make_rollout(config, body, lambda p, s, g: jnp.tanh(p), 40)
+
+    def loss(action):
+        final, _ = rollout(action, design, state)
+        return jnp.mean(final.x[:, 0]) + jnp.mean(final.x[:, 1] ** 2)
+
+    action = jnp.array([0.3, -0.2])
+    gradient = jax.grad(loss)(action)
+    h = 1e-5
+    numeric = [(loss(action.at[i].add(h)) - loss(action.at[i].add(-h))) / (2 * h) for i in range(2)]
+    np.testing.assert_allclose(gradient, numeric, rtol=1e-5, atol=1e-9)
+
+
+def test_bad_moving_colliders_are_refused_naming_what_is_wrong():
+    floor = HalfPlane((0.0, 0.1), (0.0, 1.0))
+    with pytest.raises(SimConfigError, match="a 2D collider needs a velocity of 2 numbers"):
+        Collider(floor, velocity=(1.0, 0.0, 0.0))
+    with pytest.raises(SimConfigError, match="Collider.velocity must be 2 or 3 finite numbers"):
+        Collider(floor, velocity=(math.inf, 0.0))
+    with pytest.raises(SimConfigError, match="travels 1.6 cells per step .*slow it down or lower dt"):
+        SimConfig(
+            (16, 16),
+            1 / 16,
+            1e-2,
+            (0.0, -9.8),
+            boundary=Boundary.box(2, colliders=[Collider(floor, velocity=(10.0, 0.0))]),
+        )

@@ -19,6 +19,8 @@ from litl.robots.robot import Robot, place  # noqa: E402
 from litl.robots.shapes import Box, Part, sample_parts  # noqa: E402
 from litl.robots.tasks import Locomotion, Reach, Task  # noqa: E402
 from litl.sim import Boundary, SimConfig, Wall  # noqa: E402
+from litl.sim.colliders import Box as SolidBox  # noqa: E402
+from litl.sim.colliders import Collider  # noqa: E402
 from litl.viz import (  # noqa: E402
     VizError,
     animate_rollout,
@@ -271,6 +273,25 @@ def test_gif_of_a_rollout(robot2d, recorded, tmp_path):
     with Image.open(path) as gif:
         assert gif.n_frames == 3  # frames 0, 2, 4 of 5
     assert sorted(p.name for p in path.parent.iterdir()) == ["walk.gif"]  # no temporary left
+
+
+def test_a_moving_collider_is_drawn_where_it_is_at_each_frame(robot2d, recorded, tmp_path):
+    paddle = Collider(SolidBox((0.8, 0.1), (0.9, 0.4)), Wall("slip"), velocity=(-0.5, 0.0))
+    boundary = dataclasses.replace(robot2d.config.boundary, colliders=(paddle,))
+    robot = dataclasses.replace(robot2d, config=dataclasses.replace(robot2d.config, boundary=boundary))
+
+    def left_edge(time):
+        (solid,) = with_gid(draw_robot(robot, time=time), "moving_collider")
+        return min(path.vertices[:, 0].min() for path in solid.get_paths() if len(path.vertices))
+
+    assert left_edge(0.0) == pytest.approx(0.8, abs=0.01)
+    assert left_edge(0.2) == pytest.approx(0.7, abs=0.01)
+    positions, actuation = recorded
+    path = animate_rollout(robot, positions, actuation, tmp_path / "paddle.gif", dpi=30, frame_seconds=0.1)
+    with Image.open(path) as gif:
+        assert gif.n_frames == 5
+    with pytest.raises(VizError, match="frame_seconds must be positive"):
+        animate_rollout(robot, positions, actuation, tmp_path / "x.gif", frame_seconds=0.0)
 
 
 def test_gif_3d(robot3d, tmp_path):
