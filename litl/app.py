@@ -15,6 +15,7 @@ import pathlib
 from collections.abc import Sequence
 from typing import Literal
 
+import litl.backend
 import litl.robots
 from litl.config import (
     RESOLUTIONS,
@@ -198,6 +199,9 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
         f"{budget} -> {run_dir}"
     )
+    note = litl.backend.speed_note()
+    if note:
+        say(note)
     run_dir.mkdir(parents=True, exist_ok=True)
     if config.baseline.kind != BaselineKind.none:  # a gradient-free baseline instead of the loop
         from litl.baselines import run_baseline

@@ -170,3 +170,16 @@ def test_a_cuda_jaxlib_with_the_slow_scatter_warns_once_naming_the_fix(monkeypat
         assert f"jaxlib {version}" in messages[0] and 'pip install -U "jax[cuda12]>=0.11.1"' in messages[0]
     else:
         assert messages == []
+
+
+def test_a_deterministic_run_on_a_gpu_says_what_it_costs_and_how_to_lift_it(monkeypatch):
+    import jax
+
+    monkeypatch.setattr(jax, "default_backend", lambda: "cpu")
+    monkeypatch.setattr(backend, "_configured", "on")
+    assert backend.speed_note() is None  # a CPU: deterministic in either mode, nothing to say
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    monkeypatch.setattr(backend, "_configured", "on")
+    assert "LITL_DETERMINISM=off" in backend.speed_note() and "3x slower" in backend.speed_note()
+    monkeypatch.setattr(backend, "_configured", "off")
+    assert backend.speed_note() is None
