@@ -220,20 +220,26 @@ def test_a_shapes_distance_in_jax_is_its_distance_in_numpy(shape):
     chex.assert_trees_all_close(moving.distance(shifted, 0.2), shape.distance(points), atol=1e-12)
 
 
-def _carried(contact, seconds=0.3, speed=0.5):
-    """The block's centroid displacement along x on a floor that moves along itself at `speed`."""
-    floor = Collider(HalfPlane((0.0, 0.15), (0.0, 1.0)), contact, velocity=(speed, 0.0))
+def _passive_block(collider, seconds, lower, size, floor="sticky"):
+    """(initial state, final state, config) of a resting passive block beside `collider`."""
     config, body, design, state = block(
         n_grid=32,
-        lower=0.16,
-        size=0.15,
+        lower=lower,
+        size=size,
         youngs=1000.0,
         n_actuators=0,
-        boundary=Boundary.box(2, colliders=[floor]),
+        boundary=Boundary.box(2, floor=floor, colliders=[collider]),
     )
     steps = int(seconds / config.dt)
     rollout = jax.jit(make_rollout(config, body, lambda p, s, g: jnp.zeros((0,)), steps))
-    final, trajectory = rollout(None, design, state)
+    final, _ = rollout(None, design, state)
+    return state, final, config
+
+
+def _carried(contact, seconds=0.3, speed=0.5):
+    """The block's centroid displacement along x on a floor that moves along itself at `speed`."""
+    floor = Collider(HalfPlane((0.0, 0.15), (0.0, 1.0)), contact, velocity=(speed, 0.0))
+    state, final, _ = _passive_block(floor, seconds, lower=0.16, size=0.15)
     return float(jnp.mean(final.x[:, 0]) - jnp.mean(state.x[:, 0])), seconds
 
 
@@ -250,18 +256,8 @@ def test_a_moving_paddle_pushes_a_block_ahead_of_it():
     """A slip paddle moving right at 0.4 reaches a block resting on the floor and pushes it: at
     the end the block is ahead of the paddle's face and has moved with it."""
     paddle = Collider(Box((0.05, 0.1), (0.15, 0.3)), Wall("slip"), velocity=(0.4, 0.0))
-    config, body, design, state = block(
-        n_grid=32,
-        lower=0.2,
-        size=0.12,
-        youngs=1000.0,
-        n_actuators=0,
-        boundary=Boundary.box(2, floor="slip", colliders=[paddle]),
-    )
-    config_steps = int(0.4 / config.dt)
-    rollout = jax.jit(make_rollout(config, body, lambda p, s, g: jnp.zeros((0,)), config_steps))
-    final, _ = rollout(None, design, state)
-    face = 0.15 + 0.4 * config_steps * config.dt
+    state, final, config = _passive_block(paddle, 0.4, lower=0.2, size=0.12, floor="slip")
+    face = 0.15 + 0.4 * int(0.4 / config.dt) * config.dt
     assert float(jnp.min(final.x[:, 0])) > face - config.dx  # not run through
     assert float(jnp.mean(final.x[:, 0]) - jnp.mean(state.x[:, 0])) > 0.5 * (face - 0.2)
     static = Collider(paddle.shape, Wall("slip"))
