@@ -1,4 +1,4 @@
-"""The GPU check: one script a person with one GPU runs (about 8 minutes on one H100, estimated).
+"""The GPU check: one script a person with one GPU runs (well over 15 minutes on one H200).
 
     python benchmarks/gpu_check.py --out gpu_check            # the whole check
     python benchmarks/gpu_check.py --out /tmp/c --smoke       # tiny sizes: the script itself, on a CPU
