@@ -358,7 +358,10 @@ def test_each_cell_counts_its_stuck_seeds_skipped_and_stepped_back_iterations():
     group = Group("biped", "vae", (Run(pathlib.Path("."), {"config": {}}, tuple(records)),))
     cell = cell_record("litl/fig4b/vae", group)
     assert (cell.seeds, cell.stuck, cell.skipped, cell.stepped_back, cell.iterations) == (2, 1, 2, 1, 8)
-    lines = cells_markdown([cell], {"litl/fig4b/vae": 90.0}, {"litl/fig4b/vae": Origin("ab" * 20, None, 3.0)})
+    gpu = {"platform": "gpu", "device": "NVIDIA H200", "determinism": "off"}
+    origins = {"litl/fig4b/vae": Origin("ab" * 20, None, 3.0, gpu)}
+    lines = cells_markdown([cell], {"litl/fig4b/vae": 90.0}, origins)
     assert lines[-1] == (
-        "| litl/fig4b/vae | 2 | 1 | 2 | 1 | 8 | 1.5 min | abababababab | yields past a stretch of 3 |"
+        "| litl/fig4b/vae | 2 | 1 | 2 | 1 | 8 | 1.5 min | abababababab | yields past a stretch of 3 "
+        "| NVIDIA H200, determinism off |"
     )

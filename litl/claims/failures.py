@@ -15,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from litl.claims.origins import Origin, material
+from litl.claims.origins import Origin, material, platform
 from litl.claims.verdicts import final_losses, stuck_seeds
 from litl.report.runs import Group
 from litl.stuck import skipped
@@ -76,10 +76,13 @@ def cells_markdown(
         "",
         "Seeds with a final task loss; seeds that ended stuck (counted with their last good loss); "
         "iterations skipped (nothing of them kept) and stepped back (retaken at half the step), "
-        "over all seeds; wall time (`timings.json`); the commit and material that made the cell.",
+        "over all seeds; wall time (`timings.json`); the commit and material that made the cell, and "
+        "where it ran (cells of one table may come from different platforms: their numbers are "
+        "comparable, not bit-identical).",
         "",
-        "| cell | seeds | stuck | skipped | stepped back | iterations | wall time | commit | material |",
-        "|---|---:|---:|---:|---:|---:|---:|---|---|",
+        "| cell | seeds | stuck | skipped | stepped back | iterations | wall time | commit | material "
+        "| platform |",
+        "|---|---:|---:|---:|---:|---:|---:|---|---|---|",
     ]
     for c in cells:
         seconds = timings.get(c.name)
@@ -87,8 +90,9 @@ def cells_markdown(
         origin = found.get(c.name)
         commit = (origin.commit or "—")[:12] if origin else "—"
         made_of = material(origin.max_stretch) if origin else "—"
+        where = platform(origin.backend) if origin else "—"
         lines.append(
             f"| {c.name} | {c.seeds} | {c.stuck} | {c.skipped} | {c.stepped_back} | {c.iterations} "
-            f"| {time} | {commit} | {made_of} |"
+            f"| {time} | {commit} | {made_of} | {where} |"
         )
     return lines

@@ -29,11 +29,13 @@ class Origin:
         before litl recorded it).
       recorded: run.json's "provenance" (None: a run from before 2026-11-27).
       max_stretch: the simulator's strain limit (None: purely elastic).
+      backend: run.json's "backend": platform, device, determinism (None: not recorded).
     """
 
     commit: str | None
     recorded: dict[str, Any] | None
     max_stretch: float | None
+    backend: dict[str, Any] | None = None
 
     @property
     def litl(self) -> str:
@@ -49,12 +51,22 @@ def origin(run_dir: str | os.PathLike[str]) -> Origin | None:
         saved = json.load(file)
     recorded = saved.get("provenance")
     # A run from before the strain limit has no "max_stretch": it was purely elastic.
-    return Origin(recorded.get("commit") if recorded else None, recorded, saved.get("max_stretch"))
+    commit = recorded.get("commit") if recorded else None
+    return Origin(commit, recorded, saved.get("max_stretch"), saved.get("backend"))
 
 
 def material(max_stretch: float | None) -> str:
     """The material in words: ``elastic`` or ``yields past a stretch of 3``."""
     return "elastic (no strain limit)" if max_stretch is None else f"yields past a stretch of {max_stretch:g}"
+
+
+def platform(backend: dict[str, Any] | None) -> str:
+    """Where a run ran, in words: ``NVIDIA H200, determinism off`` or ``cpu, deterministic``."""
+    if not backend:
+        return "—"
+    device = backend.get("device") or backend.get("platform") or "?"
+    mode = {"on": "deterministic", "off": "determinism off"}.get(str(backend.get("determinism")), "")
+    return f"{device}, {mode}" if mode else str(device)
 
 
 def check_resumable(
