@@ -1,6 +1,7 @@
 """`litl.report.budget`: task loss against simulated steps by the stated counting rule, the steps
 to reach a fraction of the reference's distance, and the verdicts with Holm."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -71,9 +72,41 @@ def test_the_reference_beats_a_clearly_worse_method_and_holm_adjusts_upwards(tmp
     assert rows[0]["budget"] == 140 and rows[1]["budget_x"] == pytest.approx(300 / 140)
     tests, holm = rows[1]["tests"], rows[1]["holm"]
     assert tests["end"].verdict == "holds" and holm["end"] >= tests["end"].test_p
+    assert rows[1]["after_holm"]["end"] == "holds"
     # at the reference's budget (140 steps) the baseline is at its first round: loss 0
     assert rows[1]["at_reference_budget"] == pytest.approx(0.0)
     assert rows[0]["reach"][1.0][2] >= 1
+
+
+def test_a_verdict_that_does_not_survive_holm_is_shown_as_not_resolved(tmp_path):
+    # Two baselines each behind the reference at p 0.038 and 0.043 alone; with the two tests at
+    # the reference's budget (p ~1e-9) Holm's family is 4, and both end tests adjust to 0.075.
+    rng = np.random.default_rng(114)
+    good, first, second = (-1.0 + 0.1 * rng.standard_normal(10), -0.9 + 0.1 * rng.standard_normal(10),
+                           -0.9 + 0.1 * rng.standard_normal(10))  # fmt: skip
+    curves = [curve(load_run(litl_run(tmp_path, dict(enumerate(map(float, good))))), 2.0)]
+    for name, finals in (("first", first), ("second", second)):
+        curves.append(
+            curve(load_run(baseline_run(tmp_path / name, dict(enumerate(map(float, finals))))), 2.0)
+        )
+    for row in compare(curves, "vae")[1:]:
+        test, holm = row["tests"]["end"], row["holm"]["end"]
+        assert test.verdict == "holds" and test.test_p < 0.05 <= holm
+        assert row["after_holm"]["end"] == "not resolved"
+        assert row["after_holm"]["same_budget"] == "holds"
+
+
+def test_fractions_are_of_the_references_progress_also_for_a_reaching_error(tmp_path):
+    # The reference's error falls from 1.0 (first record) to 0.2 (final): 50% of its progress is
+    # an error of 0.6, which the baseline (falling 1.0 -> 0.5 -> 0.0 in three rounds) reaches at
+    # its last round, 300 steps.
+    ref = curve(load_run(litl_run(tmp_path, {0: 0.2, 1: 0.2})), 2.0)
+    ref = dataclasses.replace(ref, loss=[np.array([1.0, 0.7, 0.4, 0.2])] * 2)
+    base = curve(load_run(baseline_run(tmp_path, {0: 1.0, 1: 1.0})), 2.0)
+    base = dataclasses.replace(base, loss=[np.array([1.0, 0.7, 0.0])] * 2, final=np.array([0.0, 0.0]))
+    rows = compare([ref, base], "vae")
+    assert rows[1]["reach"][0.5][0] == 300.0 and rows[1]["reach"][0.5][2] == 2
+    assert rows[0]["reach"][0.5][2] == 2  # the reference reaches its own half-way point
 
 
 def test_the_command_writes_the_plot_and_the_table_and_refuses_a_bad_cost(tmp_path, capsys):
