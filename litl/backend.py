@@ -171,6 +171,13 @@ def record() -> dict:
     }
 
 
+def device_of(recorded: dict | None) -> str | None:
+    """The device a run ran on, from its `record()` (run.json's "backend"): the device's name
+    (``NVIDIA H200``), else the platform (``cpu``); None where neither was recorded."""
+    found = (recorded or {}).get("device") or (recorded or {}).get("platform")
+    return None if found is None else str(found)
+
+
 _warned_slow_scatter = False
 
 

@@ -11,12 +11,14 @@ import numpy as np
 import pytest
 from scipy.stats import ttest_ind
 
+from litl.claims import rules
 from litl.claims.markdown import claims_markdown
 from litl.claims.tables import write_csv
 from litl.claims.verdicts import (
     CLAIMS,
     CONTRADICTED,
     HOLDS,
+    NO_DATA,
     NOT_RESOLVED,
     holm,
     judge,
@@ -159,3 +161,20 @@ def test_the_suite_pages_holm_column_is_holm_of_its_claims_csv():
             else NOT_RESOLVED
         )
         assert re.sub(r"\*", "", surviving) == expected, line
+
+
+@pytest.mark.parametrize(
+    "verdict, holm_p, survives",
+    [
+        (HOLDS, 0.049, HOLDS),
+        (HOLDS, 0.05, NOT_RESOLVED),
+        (CONTRADICTED, 0.01, CONTRADICTED),
+        (CONTRADICTED, math.nan, NOT_RESOLVED),
+        (NO_DATA, 0.001, NO_DATA),
+        (NOT_RESOLVED, 0.001, NOT_RESOLVED),
+    ],
+)
+def test_one_rule_decides_what_survives_holm(verdict, holm_p, survives):
+    """The claims tables (`Verdict.holm_verdict`) and the budget comparison (`litl.report.budget`)
+    both ask `rules.after_holm`: a holds or contradicted needs its adjusted p below ALPHA."""
+    assert rules.after_holm(verdict, holm_p) == survives

@@ -15,6 +15,7 @@ import os
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from litl import backend as backend_module
 from litl import provenance
 from litl.claims.suite import Cell, ClaimsError, expected_records, finished_records
 from litl.config import Config
@@ -64,7 +65,7 @@ def platform(backend: dict[str, Any] | None) -> str:
     """Where a run ran, in words: ``NVIDIA H200, determinism off`` or ``cpu, deterministic``."""
     if not backend:
         return "—"
-    device = backend.get("device") or backend.get("platform") or "?"
+    device = backend_module.device_of(backend) or "?"
     mode = {"on": "deterministic", "off": "determinism off"}.get(str(backend.get("determinism")), "")
     return f"{device}, {mode}" if mode else str(device)
 

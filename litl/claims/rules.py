@@ -115,6 +115,14 @@ def too_few(a: Summary, b: Summary) -> Judgement | None:
     return None
 
 
+def after_holm(verdict: str, holm_p: float) -> str:
+    """The verdict that survives Holm's correction (the primary one): a HOLDS or CONTRADICTED
+    whose Holm-adjusted p is not below ALPHA becomes NOT_RESOLVED; the others are unchanged."""
+    if verdict in (HOLDS, CONTRADICTED) and not holm_p < ALPHA:
+        return NOT_RESOLVED
+    return verdict
+
+
 def beats(a: Summary, b: Summary, a_name: str, b_name: str) -> Judgement:
     """A "beats" claim, `a_name`'s final task loss lower than `b_name`'s: Welch's two-sided test."""
     if (missing := too_few(a, b)) is not None:

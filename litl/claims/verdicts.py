@@ -39,7 +39,16 @@ from numpy.typing import ArrayLike
 
 from litl.claims import rules
 from litl.claims.estimates import CutCheck, Estimate, estimate
-from litl.claims.rules import ALPHA, CONTRADICTED, HOLDS, NEEDS_RUNS, NO_DATA, NOT_RESOLVED, Judgement
+from litl.claims.rules import (  # noqa: F401  (ALPHA and the verdicts re-exported: the tables' names)
+    ALPHA,
+    CONTRADICTED,
+    HOLDS,
+    NEEDS_RUNS,
+    NO_DATA,
+    NOT_RESOLVED,
+    Judgement,
+    after_holm,
+)
 from litl.claims.stats import Summary, holm, summarize
 from litl.report.runs import Group
 from litl.report.stats import final_window_values, series, series_ends
@@ -278,9 +287,7 @@ class Verdict:
     def holm_verdict(self) -> str:
         """The primary verdict: a HOLDS or CONTRADICTED whose Holm-adjusted p is not below ALPHA
         becomes NOT_RESOLVED; the rest are unchanged."""
-        if self.verdict in (HOLDS, CONTRADICTED) and not self.holm_p < ALPHA:
-            return NOT_RESOLVED
-        return self.verdict
+        return after_holm(self.verdict, self.holm_p)
 
     @property
     def gap_below_detectable(self) -> bool | None:

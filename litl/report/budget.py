@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from litl.backend import device_of
 from litl.report.runs import Run, load_runs
 
 FRACTIONS = (0.5, 0.9, 1.0)
@@ -79,8 +80,7 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
     for s, seed in enumerate(seeds):
         value = by_seed.get(seed, loss[s][-1] if len(loss[s]) else None)
         final[s] = math.nan if value is None else float(value)
-    backend = run.settings.get("backend") or {}
-    device = str(backend.get("device") or backend.get("platform") or "—")
+    device = device_of(run.settings.get("backend")) or "—"
     return Curve(label or run.head, seeds, steps, loss, wall, final, device)
 
 
@@ -112,7 +112,7 @@ def compare(curves: list[Curve], reference: str, level: float = 0.9) -> list[dic
     """One row per curve: budget, final loss with its interval, steps/wall to reach FRACTIONS of
     the reference's progress (its mean first task loss to its mean final one), and the verdicts
     against the reference (Holm over all)."""
-    from litl.claims.rules import beats
+    from litl.claims.rules import after_holm, beats
     from litl.claims.stats import holm, summarize
     from litl.report.stats import confidence_band
 
@@ -144,9 +144,7 @@ def compare(curves: list[Curve], reference: str, level: float = 0.9) -> list[dic
     for (row, key), p in zip(tests, adjusted, strict=True):
         row.setdefault("holm", {})[key] = float(p)
         # The claims suite's primary verdict: one that survives Holm's correction.
-        verdict = row["tests"][key].verdict
-        resolved = verdict in ("holds", "contradicted") and p < 0.05
-        row.setdefault("after_holm", {})[key] = verdict if resolved else "not resolved"
+        row.setdefault("after_holm", {})[key] = after_holm(row["tests"][key].verdict, float(p))
     return rows
 
 
