@@ -30,14 +30,11 @@ back to the lines written before it.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import math
 import os
 import pathlib
 import time
-from collections.abc import Callable
-from typing import Any
 
 import jax
 import numpy as np
@@ -50,6 +47,7 @@ from litl.errors import UserError
 from litl.loop.algorithm import SKIP_REASONS, Best, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
+from litl.loop.programs import Programs, programs
 from litl.loop.progress import Progress, say
 from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
@@ -162,14 +160,18 @@ def run(
     run_dir = pathlib.Path(run_dir)
     bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)
     # Learning epochs are reported only where a progress display shows them (a compiled phase
-    # without the host callback can come from JAX's persistent cache).
-    algorithm = make_algorithm(robot, config, on_epoch=bar.on_epoch if progress else None)
-    wanted = settings(robot, config, algorithm)
+    # without the host callback can come from JAX's persistent cache). The programs are shared
+    # with an earlier run of this process that needed the same ones (`litl.loop.programs`).
+    shared = programs(robot, config, progress, seeds_at_once(config.loop, config.seeds))
+    wanted = settings(robot, config, shared.algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
-    with RunDirectoryLock(run_dir):
-        return _run_locked(
-            robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes, config_files or {}
-        )
+    shared.epochs.to = bar.on_epoch if progress else None
+    try:
+        with RunDirectoryLock(run_dir):
+            files = config_files or {}
+            return _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes, files)
+    finally:
+        shared.epochs.to = None
 
 
 class RunDirectoryLock:
@@ -224,12 +226,12 @@ class RunDirectoryLock:
         return False
 
 
-def _run_locked(robot, config, run_dir, algorithm, wanted, bar, stop_after_episodes, config_files):
+def _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes, config_files):
     _claim(run_dir, wanted, config_files)
-    loop = config.loop
+    loop, algorithm = config.loop, shared.algorithm
     seeds = [config.seed + s for s in range(config.seeds)]
     logger = make_logger(config.output.logger, run_dir, seeds, loop.iterations, wanted)
-    shell = _Shell(run_dir, algorithm, seeds, logger, seeds_at_once(loop, len(seeds)))
+    shell = _Shell(run_dir, shared, seeds, logger)
     try:
         state, counters = shell.start()
         episodes = loop.episodes if stop_after_episodes is None else min(stop_after_episodes, loop.episodes)
@@ -335,31 +337,15 @@ def _say_if_resumed_elsewhere(run_dir: pathlib.Path, found: dict) -> None:
 
 
 class _Shell:
-    """The impure side of one run: the seeds' batched (jit of vmap) functions, the metrics and
-    learning files, the checkpoints."""
+    """The impure side of one run: the seeds' batched (jit of vmap) functions (`Programs`), the
+    metrics and learning files, the checkpoints."""
 
-    def __init__(
-        self,
-        run_dir: pathlib.Path,
-        algorithm,
-        seeds: list[int],
-        logger: RunLogger,
-        learning_seeds_at_once: int,
-    ):
-        self.algorithm, self.seeds, self.logger = algorithm, seeds, logger
-        self.reconstruct: Callable[..., Any] | None = None
+    def __init__(self, run_dir: pathlib.Path, shared: Programs, seeds: list[int], logger: RunLogger):
+        self.algorithm, self.seeds, self.logger = shared.algorithm, seeds, logger
+        self.programs = shared
         self.plan_checked = False
-        batched = lambda f: jax.jit(jax.vmap(f))
-        self.optimize = batched(algorithm.optimize)
-        self.learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=learning_seeds_at_once))
-        if algorithm.retrains:
-            # The bootstrap's learning phase is the later phases' program, `first` passed as a
-            # value, not a second compilation of it.
-            fill = batched(algorithm.fill)
-            self.bootstrap = lambda states: self.learn(fill(states), first=True)
-        else:
-            self.bootstrap = batched(algorithm.bootstrap)
-        self.evaluate = batched(algorithm.evaluate)
+        self.optimize, self.learn = shared.optimize, shared.learn
+        self.bootstrap, self.evaluate = shared.bootstrap, shared.evaluate
         self.checkpoints = Checkpoints(run_dir / "checkpoints")
         self.metrics_file = run_dir / "metrics.jsonl"
         self.learning_file = run_dir / "learning.jsonl"
@@ -466,12 +452,10 @@ class _Shell:
         learner = self.algorithm.observer.learner
         if isinstance(self.logger, NoLogger) or learner is None or learner.reconstruct is None:
             return
-        if self.reconstruct is None:  # compiled once per run
-            self.reconstruct = jax.jit(learner.reconstruct)
         first = seed_slice(jax.tree.map(np.asarray, state), 0)
         snapshots = newest(first.buffer, 6)
         if len(snapshots):
-            pixels = snapshot_strip(snapshots, self.reconstruct(first.observer, snapshots))
+            pixels = snapshot_strip(snapshots, self.programs.reconstruct(first.observer, snapshots))
             self.logger.image(self.seeds[0], "observer/snapshots", pixels, step)
 
 

@@ -1,0 +1,91 @@
+"""Runs of one process that need the same programs share them (`litl.loop.programs`): robots
+and settings compared by content, the first seed's number and the output left out; sharing
+changes no result."""
+
+import dataclasses
+import io
+import re
+
+import numpy as np
+import pytest
+
+import litl.robots
+from litl.errors import UserError
+from litl.loop import programs as shared
+from litl.loop.run import run
+from tests.loop.tiny import tiny_config, tiny_robot
+
+
+def one_episode(**changes):
+    return tiny_config(loop={"episodes": 1, "iterations": 1}).replace(**changes)
+
+
+def test_equal_robots_and_settings_share_their_programs_and_others_do_not():
+    first = shared.programs(tiny_robot(), one_episode(), False, 2)
+    # Built again alike, another first seed, other output settings: the same programs.
+    again = shared.programs(tiny_robot(), one_episode(seed=7, output={"logger": "tensorboard"}), False, 2)
+    assert again is first
+    others = [
+        shared.programs(litl.robots.get("biped", dx=1 / 24), one_episode(), False, 2),  # other particles
+        shared.programs(tiny_robot(), one_episode(controller={"learning_rate": 0.01}), False, 2),
+        shared.programs(tiny_robot(), one_episode(loop={"episodes": 2}), False, 2),  # the cosine's length
+        shared.programs(tiny_robot(), one_episode(seeds=3), False, 3),  # each seed's memory budget
+        shared.programs(tiny_robot(), one_episode(), True, 2),  # epochs reported
+        shared.programs(tiny_robot(), one_episode(), False, 1),  # learning phases one seed at a time
+    ]
+    assert all(other is not first for other in others)
+    assert len({id(other) for other in others}) == len(others)
+
+
+def test_content_keys_compare_values_and_refuse_what_they_cannot_compare():
+    key = shared.content_key
+    assert key(np.arange(3.0)) == key(np.arange(3.0)) != key(np.arange(3.0).astype(np.float32))
+    assert key(float("nan")) == key(float("nan")) and key(1) != key(1.0) != key(True)
+    assert key({"a": [1, 2]}) == key({"a": [1, 2]}) != key({"a": (1, 2)})
+    robot = tiny_robot()
+    layout = dataclasses.replace(robot.layout, positions=robot.layout.positions + 1e-6)
+    moved = dataclasses.replace(robot, layout=layout)
+    assert key(robot) == key(tiny_robot()) != key(moved)
+    with pytest.raises(shared._Unkeyable):
+        key(io.StringIO())
+
+
+def test_a_value_that_cannot_be_compared_builds_afresh(monkeypatch):
+    monkeypatch.setattr(shared, "_key", lambda *args: shared.content_key(io.StringIO()))
+    assert shared.programs(tiny_robot(), one_episode(), False, 2) is not shared.programs(
+        tiny_robot(), one_episode(), False, 2
+    )
+
+
+@pytest.mark.parametrize("value", ["-1", "many"])
+def test_a_bad_cache_size_is_refused_naming_the_variable(monkeypatch, value):
+    monkeypatch.setenv(shared.SWITCH, value)
+    with pytest.raises(UserError, match=f"{shared.SWITCH}={value!r}: must be a whole number >= 0"):
+        shared.programs(tiny_robot(), one_episode(), False, 2)
+
+
+def test_the_cache_keeps_its_size_and_zero_turns_sharing_off(monkeypatch):
+    monkeypatch.setenv(shared.SWITCH, "1")
+    first = shared.programs(tiny_robot(), one_episode(), False, 2)
+    shared.programs(tiny_robot(), one_episode(), False, 1)  # pushes the first out
+    assert shared.programs(tiny_robot(), one_episode(), False, 2) is not first
+    monkeypatch.setenv(shared.SWITCH, "0")
+    assert shared.programs(tiny_robot(), one_episode(), False, 2) is not shared.programs(
+        tiny_robot(), one_episode(), False, 2
+    )
+
+
+def test_a_run_on_shared_programs_equals_the_run_that_built_them_and_reports_its_epochs(tmp_path, capsys):
+    """The second run of the same settings shares the first's programs (nothing traced or
+    compiled again); its records equal the first's, and its epoch reports reach its own progress
+    display, which the programs let go of when it ends."""
+    config = one_episode(seed=3)
+    built = run(tiny_robot(), config, tmp_path / "built", progress=True)
+    programs = shared.programs(tiny_robot(), config, True, 2)
+    capsys.readouterr()
+    again = run(tiny_robot(), config, tmp_path / "again", progress=True)
+    assert shared.programs(tiny_robot(), config, True, 2) is programs
+    assert re.search(r"learning phase: epoch [1-9]", capsys.readouterr().err)
+    assert programs.epochs.to is None
+    strip = lambda records: [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
+    assert strip(again.metrics) == strip(built.metrics)
