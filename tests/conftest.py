@@ -23,18 +23,6 @@ _flags = os.environ.get("XLA_FLAGS", "")
 if "xla_backend_optimization_level" not in _flags:
     _flags = f"{_flags} --xla_backend_optimization_level=0".strip()
 
-# XLA's CPU backend emits its fusions through MLIR (the "fusion emitters") since 2025; the older
-# elemental emitters compile the tests' programs in less than half the time (a tiny loop's
-# optimization step: 3.5 s -> 1.5 s; tests/loop/test_seeds.py and the reference walker: 117 s ->
-# 76 s; docs/results/benchmarks.md) and compute the same values to rounding. The flag is known to
-# the jaxlib versions listed (an unknown flag in XLA_FLAGS stops XLA at start); a flag already set
-# is kept.
-_ELEMENTAL_EMITTERS = "--xla_cpu_use_fusion_emitters=false"
-_KNOWN_BY = ("0.10.",)
-import jaxlib  # noqa: E402  (its version only: XLA reads XLA_FLAGS when JAX's backend starts)
-
-if "xla_cpu_use_fusion_emitters" not in _flags and jaxlib.__version__.startswith(_KNOWN_BY):
-    _flags = f"{_flags} {_ELEMENTAL_EMITTERS}"
 os.environ["XLA_FLAGS"] = _flags
 
 # Runs of the same robot and settings in one process share their compiled programs

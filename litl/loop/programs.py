@@ -16,7 +16,8 @@ object litl cannot compare by value, such as a user's task holding an open file)
 
 The cache holds `LITL_PROGRAM_CACHE` entries (default 4; 0 turns sharing off), the least
 recently used dropped first: each holds the compiled programs and the robot's arrays they were
-traced with.
+traced with. A change to litl's own code within a running process (a module reloaded, a function
+patched) is not part of the key: call `clear()` after one, or set LITL_PROGRAM_CACHE=0.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import jax
 import numpy as np
 
 from litl.config import Config, OutputConfig
+from litl.loop.algorithm import make_algorithm
 from litl.registry import registry
 from litl.robots.robot import Robot
 
@@ -111,8 +113,6 @@ class Programs:
 
 
 def _build(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Programs:
-    from litl.loop.algorithm import make_algorithm
-
     epochs = EpochReports()
     algorithm = make_algorithm(robot, config, on_epoch=epochs if reports_epochs else None)
     batched = lambda f: jax.jit(jax.vmap(f))
@@ -166,15 +166,16 @@ def programs(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: 
         key = _key(robot, config, reports_epochs, seeds_at_once) if size else None
     except _Unkeyable:
         key = None
-    if key is not None and key in _cache:
+    found = _cache.get(key) if key is not None else None
+    if found is None:
+        found = _build(robot, config, reports_epochs, seeds_at_once)
+        if key is not None:
+            _cache[key] = found
+    else:
         _cache.move_to_end(key)
-        return _cache[key]
-    built = _build(robot, config, reports_epochs, seeds_at_once)
-    if key is not None:
-        _cache[key] = built
-        while len(_cache) > size:
-            _cache.popitem(last=False)
-    return built
+    while len(_cache) > size:  # the size may have changed since the last call
+        _cache.popitem(last=False)
+    return found
 
 
 def clear() -> None:

@@ -19,8 +19,8 @@ from litl.report import write_report
 from litl.report.runs import Group, load_run
 from tests.loop.tiny import tiny_config
 
-# The module (`litl.loop.run` is also the function the package exports).
-RUN_MODULE = importlib.import_module("litl.loop.run")
+# Where runs build their programs (`litl.loop.programs`).
+PROGRAMS = importlib.import_module("litl.loop.programs")
 STUCK_FROM = 4  # seed 0's iterations 4 and 5 (the last two) fail
 
 
@@ -36,7 +36,7 @@ def stuck_run(tmp_path_factory):
         robot={"dx": 1 / 32},
         output={"pictures": False, "animation": False, "progress": False, "logger": "none"},
     )
-    make_algorithm = RUN_MODULE.make_algorithm
+    make_algorithm = PROGRAMS.make_algorithm
 
     def poisoned(*args, **kwargs):
         algorithm = make_algorithm(*args, **kwargs)
@@ -53,7 +53,9 @@ def stuck_run(tmp_path_factory):
 
     err = io.StringIO()
     with pytest.MonkeyPatch.context() as patch, contextlib.redirect_stderr(err):
-        patch.setattr(RUN_MODULE, "make_algorithm", poisoned)
+        patch.setattr(PROGRAMS, "make_algorithm", poisoned)
+        # The poisoned programs are neither taken from nor left in the shared ones.
+        patch.setenv(PROGRAMS.SWITCH, "0")
         result = run_experiment(config, run_dir)
     return run_dir, result, err.getvalue()
 
@@ -146,7 +148,8 @@ def test_final_parameters_that_fail_after_a_healthy_last_iteration_keep_that_ite
         for seed in (0, 1)
         for step in range(3)
     ]
-    RUN_MODULE._save_final_losses(tmp_path, np.array([np.nan, -1.5]), [0, 1], records)
+    run_module = importlib.import_module("litl.loop.run")  # the package exports `run`, the function
+    run_module._save_final_losses(tmp_path, np.array([np.nan, -1.5]), [0, 1], records)
     failed, other = json.loads((tmp_path / "final.json").read_text())
     assert failed == {
         "seed": 0,
