@@ -9,13 +9,6 @@ import pytest
 from litl.models import vae
 from litl.models.controller import MLPController
 
-# Compiled whole: run op by op, a network's init and evaluation compile each of their operations
-# alone (hundreds of small compilations in a test).
-init_autoencoder = jax.jit(vae.init_autoencoder, static_argnums=0)
-loss_terms = jax.jit(vae.loss_terms, static_argnums=0, static_argnames=("beta", "momentum_weight"))
-losses = jax.jit(vae.losses, static_argnums=0, static_argnames=("beta", "momentum_weight"))
-per_pixel_reconstruction_loss = jax.jit(vae.per_pixel_reconstruction_loss, static_argnums=0)
-
 
 def synthetic_fields(n, shape=(32, 32), seed=0):
     """Velocity fields of a disc: slightly random position, translation velocity and spin."""
@@ -35,7 +28,7 @@ def synthetic_fields(n, shape=(32, 32), seed=0):
 @pytest.mark.parametrize("grid_shape", [(64, 48), (20, 20, 20)])
 def test_shapes_2d_and_3d(grid_shape):
     model = vae.ConvAutoencoder(grid_shape, latent_dim=5, channels=(4, 4, 8, 8, 8))  # narrow: fast
-    params = init_autoencoder(model, jax.random.key(0))
+    params = jax.jit(vae.init_autoencoder, static_argnums=0)(model, jax.random.key(0))
     fields = jnp.ones((3,) + grid_shape + (len(grid_shape),))
     reconstruction, mean, log_variance = jax.jit(model.apply)(params.network, fields, jax.random.key(1))
     assert reconstruction.shape == fields.shape
@@ -45,7 +38,7 @@ def test_shapes_2d_and_3d(grid_shape):
 
 
 def _train(model, fields, steps=500, seed=0):
-    params = vae.fit_scale(init_autoencoder(model, jax.random.key(seed)), fields)
+    params = vae.fit_scale(vae.init_autoencoder(model, jax.random.key(seed)), fields)
     optimizer = optax.adam(3e-3)
     opt_state = optimizer.init(params.network)
     step = jax.jit(vae.make_train_step(model, optimizer, beta=1.0))
@@ -66,7 +59,7 @@ def test_training_beats_predicting_the_mean(variational):
     # ~2 s on a CPU).
     params, out = _train(model, fields, steps=300)
     held_out = synthetic_fields(64, seed=1)
-    val = losses(model, params, held_out)
+    val = vae.losses(model, params, held_out)
     x = held_out / params.scale
     baseline = float(jnp.mean((x - jnp.mean(fields / params.scale, 0)) ** 2))
     assert float(val["recon"]) < 0.3 * baseline
@@ -74,13 +67,13 @@ def test_training_beats_predicting_the_mean(variational):
         assert float(out["kl"]) > 0
     else:
         assert float(out["kl"]) == 0.0
-    distance = per_pixel_reconstruction_loss(model, params, held_out)
+    distance = vae.per_pixel_reconstruction_loss(model, params, held_out)
     assert np.isfinite(float(distance)) and float(distance) > 0
 
 
 def test_scale_follows_the_data():
     model = vae.ConvAutoencoder((32, 32), latent_dim=2)
-    params = init_autoencoder(model, jax.random.key(0))
+    params = vae.init_autoencoder(model, jax.random.key(0))
     fields = synthetic_fields(8)
     slow, fast = vae.fit_scale(params, fields), vae.fit_scale(params, 10 * fields)
     np.testing.assert_allclose(fast.scale, 10 * slow.scale, rtol=1e-5)
@@ -91,7 +84,7 @@ def test_fields_without_motion_keep_the_scale():
     # with zero fields, or round-off: the scale must stay what it was, not drop to the floor
     # and multiply every later input by 1 / floor.
     model = vae.ConvAutoencoder((32, 32), latent_dim=2)
-    params = init_autoencoder(model, jax.random.key(0))
+    params = vae.init_autoencoder(model, jax.random.key(0))
     fitted = vae.fit_scale(params, synthetic_fields(4))
     for still in (jnp.zeros((4, 32, 32, 2)), jnp.full((4, 32, 32, 2), 1e-9)):
         assert float(vae.fit_scale(params, still).scale) == 1.0
@@ -103,7 +96,7 @@ def test_fields_without_motion_keep_the_scale():
 
 def test_gradient_flows_from_actuation_to_grid_velocity():
     model = vae.ConvAutoencoder((32, 32), latent_dim=4)
-    params = init_autoencoder(model, jax.random.key(0))
+    params = vae.init_autoencoder(model, jax.random.key(0))
     controller = MLPController(n_actuators=3, widths=(8,))
     control = controller.init(jax.random.key(1), jnp.zeros(4))
     observe = vae.make_observer(model)
@@ -131,7 +124,7 @@ def test_closed_loop_rollout_with_vae_observer_has_finite_gradients():
 
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.25)
     model = vae.ConvAutoencoder(config.grid_shape, latent_dim=4)
-    observer = init_autoencoder(model, jax.random.key(0))
+    observer = vae.init_autoencoder(model, jax.random.key(0))
     observe = vae.make_observer(model)
     controller = MLPController(n_actuators=body.n_actuators, widths=(16,))
     params = controller.init(jax.random.key(1), jnp.zeros(4))
@@ -150,10 +143,10 @@ def test_momentum_term_is_the_linear_heads_error_on_the_field_mean():
     """total = recon + w * mean_c (head(mean) - mean over nodes of x)^2 + beta * KL / values; w = 0
     is the paper's loss."""
     model = vae.ConvAutoencoder((32, 32), latent_dim=3, channels=(4, 4, 8, 8, 8))
-    params = vae.fit_scale(init_autoencoder(model, jax.random.key(0)), synthetic_fields(4))
+    params = vae.fit_scale(vae.init_autoencoder(model, jax.random.key(0)), synthetic_fields(4))
     fields = synthetic_fields(4, seed=2)
-    plain = loss_terms(model, params, fields, beta=0.5)
-    weighted = loss_terms(model, params, fields, beta=0.5, momentum_weight=3.0)
+    plain = vae.loss_terms(model, params, fields, beta=0.5)
+    weighted = vae.loss_terms(model, params, fields, beta=0.5, momentum_weight=3.0)
     x = fields / params.scale
     head = model.apply(params.network, plain["code"], method="momentum")
     expected = jnp.mean((head - jnp.mean(x, axis=(1, 2))) ** 2)
@@ -196,7 +189,7 @@ def test_momentum_term_makes_the_codes_tell_the_fields_mean_linearly():
     model = vae.ConvAutoencoder(shape, latent_dim=3, channels=(8, 8, 16, 16, 16))
     scores = {}
     for weight in (0.0, 10.0):
-        params = vae.fit_scale(init_autoencoder(model, jax.random.key(0)), fields[train])
+        params = vae.fit_scale(vae.init_autoencoder(model, jax.random.key(0)), fields[train])
         optimizer = optax.adam(3e-3)
         opt_state = optimizer.init(params.network)
         step = jax.jit(vae.make_train_step(model, optimizer, beta=1.0, momentum_weight=weight))
@@ -205,9 +198,9 @@ def test_momentum_term_makes_the_codes_tell_the_fields_mean_linearly():
             key, batch_key, noise_key = jax.random.split(key, 3)
             batch = fields[train][jax.random.choice(batch_key, len(train), (32,), replace=False)]
             params, opt_state, _ = step(params, opt_state, batch, noise_key)
-        terms = loss_terms(model, params, fields)
+        terms = vae.loss_terms(model, params, fields)
         codes = np.asarray(terms["code"], np.float64)
-        held = loss_terms(model, params, fields[held_out])
+        held = vae.loss_terms(model, params, fields[held_out])
         scores[weight] = (
             _readout_r2(codes, means, train, held_out),
             float(vae.explained_variance(held["recon"], held["signal"])),
