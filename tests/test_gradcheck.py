@@ -6,6 +6,7 @@ from litl.app import compose
 from litl.gradcheck import GROUPS, check_gradients, main, relative_error
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize(
     "overrides, steps",
     [

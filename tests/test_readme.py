@@ -14,6 +14,7 @@ import sys
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -191,6 +192,7 @@ def test_environments_block_steps_64_environments():
     assert bool(jnp.all(namespace["done"]))  # the episode's last step (then each reset)
 
 
+@pytest.mark.compute_bound
 def test_ppo_block_trains_rejax_ppo_on_a_litl_robot():
     namespace = run_block(PPO_BLOCK)
     returns = namespace["returns"]

@@ -21,6 +21,7 @@ def test_unknown_robot_name_says_which_exist():
         litl.robots.get("bipd")
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize("name", PAPER_ROBOTS)
 def test_robot_builds_inside_the_domain_and_simulates_200_steps(name):
     robot = litl.robots.get(name)
@@ -105,6 +106,7 @@ def test_arm_cannot_reach_its_target_by_bending_statically():
         assert closest > 0.5 * np.linalg.norm(target - rest)
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize("name", ["quadruped", "curved_quadruped"])
 def test_3d_quadrupeds_carry_their_torsos_without_actuation(name):
     """The torso's middle spans the legs: with too soft a body (E = 20, the 2D robots' material)

@@ -94,6 +94,7 @@ def test_particle_to_grid_conserves_mass_and_momentum(dim, x64):
     np.testing.assert_allclose(jnp.sum(grid[..., 1:], axes), momentum.sum(0), atol=1e-10)
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize("dim,steps", [(2, 5000), (3, 5000)])
 def test_elastic_block_stays_bounded(dim, steps):
     config, body, design, state = block(

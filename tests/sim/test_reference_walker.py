@@ -12,7 +12,7 @@ from litl.robots import walker2d
 from litl.sim import make_rollout, raise_if_unhealthy
 
 # Physics, gradients and determinism: worth running on a GPU (`pytest -m gpu`).
-pytestmark = pytest.mark.gpu
+pytestmark = [pytest.mark.gpu, pytest.mark.compute_bound]
 
 # The scene's published numbers are a fixture of the repository (their provenance: data/README.md).
 REFERENCE = pathlib.Path(__file__).resolve().parent / "data" / "walker2d.json"

@@ -59,6 +59,7 @@ def test_the_clamp_is_accurate_in_float32(dim):
     chex.assert_trees_all_close(got, U @ (np.minimum(s, CAP)[..., None] * Vt), rtol=1e-4, atol=1e-4)
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize("dim", [2, 3])
 def test_the_clamps_derivative_matches_central_differences(dim, x64):
     rng = np.random.default_rng(20 + dim)
