@@ -76,7 +76,9 @@ class Algorithm:
     # fill(state): the bootstrap's rollout into the buffer; bootstrap(state) is
     # learn(fill(state), first=True).
     fill: Callable[[LoopState], LoopState]
-    optimize: Callable[[LoopState], tuple[LoopState, dict]]
+    # optimize(state, iterations_in_run=None): one iteration; iterations_in_run, the run's K x M
+    # (the step sizes' cosine), as a value (None: the config's).
+    optimize: Callable[..., tuple[LoopState, dict]]
     # learn(state, first=False); first: the bootstrap's phase (Θ takes Θ′ whole, unchecked).
     learn: Callable[..., tuple[LoopState, dict]]
     # learn_seeds(states, at_once, first=False): `learn` for a batch of seeds, `at_once` phases

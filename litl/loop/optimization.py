@@ -53,8 +53,12 @@ class Optimization:
     def design_adam(self) -> optax.GradientTransformation:
         return adam(self.config.loop.design_learning_rate, self.config.loop.safeguards.gradient_clip)
 
-    def optimize(self, state: LoopState):
-        """One optimization iteration (see the module docstring); returns (state, metrics)."""
+    def optimize(self, state: LoopState, iterations_in_run=None):
+        """One optimization iteration (see the module docstring); returns (state, metrics).
+
+        `iterations_in_run`: the run's K x M iterations, the length of the step sizes' cosine (an
+        int or a () integer array, so that runs of other lengths share one program); None: the
+        config's `loop.episodes` x `loop.iterations`."""
         value_and_grad = jax.value_and_grad(self.simulation.simulate, argnums=(0, 1), has_aux=True)
         (total, (components, trajectory)), (controller_grad, design_grad) = value_and_grad(
             state.controller, state.design, state.observer
@@ -80,7 +84,9 @@ class Optimization:
         # A failed rollout or gradient comes from the last step's parameters: retake that step
         # at half its size (with the step backs on, and while it may still be halved).
         retry = ~healthy & self.may_step_back(state.anchor)
-        state = self.take_step(state, total, controller_grad, design_grad, step_back | retry)
+        state = self.take_step(
+            state, total, controller_grad, design_grad, step_back | retry, iterations_in_run
+        )
         moved = state
         snapshots = trajectory.snapshots
         keep = add if self.config.loop.replay_buffer else replace_with
@@ -147,7 +153,9 @@ class Optimization:
         limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
         return self.may_step_back(anchor) & (total > limit)
 
-    def take_step(self, state: LoopState, total, controller_grad, design_grad, step_back) -> LoopState:
+    def take_step(
+        self, state: LoopState, total, controller_grad, design_grad, step_back, iterations_in_run=None
+    ) -> LoopState:
         """The iteration's parameter update. Normally a full Adam step from the current θ, φ,
         which become the anchor; on a step back (`step_back`), the anchor's step again at half
         its last size, from the anchor's parameters, gradients and optimizer states."""
@@ -175,17 +183,19 @@ class Optimization:
             state,
             anchor.controller_grad,
             anchor.design_grad,
-            anchor.step_scale * self.step_size_factor(state.iteration),
+            anchor.step_scale * self.step_size_factor(state.iteration, iterations_in_run),
         )
 
-    def step_size_factor(self, iteration) -> jnp.ndarray:
+    def step_size_factor(self, iteration, iterations_in_run=None) -> jnp.ndarray:
         """() the fraction of θ's and φ's configured Adam step sizes at this global iteration:
         a cosine from 1 at the first to `loop.safeguards.final_learning_rate_fraction` at the
-        last of the run's K x M iterations (constant 1 when that is 1, the paper's setting)."""
+        last of the run's K x M iterations (`iterations_in_run`; None: the config's) (constant 1
+        when that is 1, the paper's setting)."""
         loop = self.config.loop
         final = loop.safeguards.final_learning_rate_fraction
-        total = loop.episodes * loop.iterations
-        progress = jnp.clip(jnp.asarray(iteration, self.simulation.dtype) / max(total - 1, 1), 0.0, 1.0)
+        total = loop.episodes * loop.iterations if iterations_in_run is None else iterations_in_run
+        last = jnp.maximum(jnp.asarray(total) - 1, 1).astype(self.simulation.dtype)
+        progress = jnp.clip(jnp.asarray(iteration, self.simulation.dtype) / last, 0.0, 1.0)
         return jnp.asarray(
             final + (1.0 - final) * 0.5 * (1.0 + jnp.cos(jnp.pi * progress)), self.simulation.dtype
         )

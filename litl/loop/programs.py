@@ -10,7 +10,8 @@ only the last step, XLA's compilation.
 `programs(robot, config, reports_epochs, seeds_at_once)` returns the same `Programs` (the
 algorithm and its jit-of-vmap functions) for the same content: the robot's (every particle,
 material value and setting, compared by value: two robots built alike share), the config's but
-for what no program reads (`seed`, the first seed's number, and `output`), the registered
+for what no program reads (`seed`, the first seed's number, `output`, and `loop.episodes`,
+which `optimize` takes as a value), the registered
 observer's and controller's factories, and JAX's 64-bit mode. A key that cannot be made (an
 object litl cannot compare by value, such as a user's task holding an open file) builds afresh.
 
@@ -93,9 +94,9 @@ class EpochReports:
 @dataclasses.dataclass(frozen=True)
 class Programs:
     """One run's pure functions (`algorithm`) and the jitted, seed-batched ones the run shell
-    calls: `optimize`, `learn(states, first)`, `bootstrap`, `evaluate`; `reconstruct` (the
-    learned observer's reconstruction of a few snapshots, for the pictures) is jitted on first
-    use; `epochs` forwards the learning phases' epoch reports."""
+    calls: `optimize(states, iterations_in_run)`, `learn(states, first)`, `bootstrap`,
+    `evaluate`; `reconstruct` (the learned observer's reconstruction of a few snapshots, for the
+    pictures) is jitted on first use; `epochs` forwards the learning phases' epoch reports."""
 
     algorithm: Any
     optimize: Callable
@@ -124,7 +125,9 @@ def _build(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: in
         bootstrap = lambda states: learn(fill(states), first=True)
     else:
         bootstrap = batched(algorithm.bootstrap)
-    optimize, evaluate = batched(algorithm.optimize), batched(algorithm.evaluate)
+    # The run's length (the step sizes' cosine) is an argument shared by the seeds.
+    optimize = jax.jit(jax.vmap(algorithm.optimize, in_axes=(0, None)))
+    evaluate = batched(algorithm.evaluate)
     return Programs(algorithm, optimize, learn, bootstrap, evaluate, epochs)
 
 
@@ -148,7 +151,11 @@ def cache_size() -> int:
 
 
 def _key(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Any:
-    unread = dataclasses.replace(config, seed=0, output=OutputConfig())
+    # Not read by any program: the first seed, the output, the number of episodes (the run passes
+    # its length to `optimize` as a value).
+    unread = dataclasses.replace(
+        config, seed=0, output=OutputConfig(), loop=dataclasses.replace(config.loop, episodes=1)
+    )
     factories = (
         registry("observer").get(config.observer.kind).factory,
         registry("controller").get(config.controller.kind).factory,

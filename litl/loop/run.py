@@ -237,7 +237,7 @@ def _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes
         episodes = loop.episodes if stop_after_episodes is None else min(stop_after_episodes, loop.episodes)
         before = np.asarray(counters["loss_before_retrain"], np.float64)
         for episode in range(int(counters["episodes_done"]), episodes):
-            state = shell.optimization_phase(state, episode, loop.iterations, before, bar)
+            state = shell.optimization_phase(state, episode, loop, before, bar)
             if algorithm.retrains:
                 before = np.asarray(shell.evaluate(state), np.float64)
                 with bar.learning(episode):
@@ -405,12 +405,17 @@ class _Shell:
             f"more forward pass"
         )
 
-    def optimization_phase(self, state, episode: int, iterations: int, before, bar):
-        """The episode's optimization iterations, each seed's metrics written as they come."""
+    def optimization_phase(self, state, episode: int, loop, before, bar):
+        """The episode's optimization iterations (`loop.iterations`), each seed's metrics written
+        as they come. The run's length, `loop.episodes` x `loop.iterations` (the step sizes'
+        cosine), is passed to the program as a value: runs that differ only in their number of
+        episodes share their programs."""
+        iterations = loop.iterations
+        in_run = np.int32(loop.episodes * loop.iterations)
         stats = jax.tree.map(np.asarray, state.stats)
         with open(self.metrics_file, "a") as out:
             for iteration in range(iterations):
-                state, metrics = self.optimize(state)
+                state, metrics = self.optimize(state, in_run)
                 self._say_checkpoint_plan()
                 metrics = jax.tree.map(np.asarray, metrics)
                 step = episode * iterations + iteration

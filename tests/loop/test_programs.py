@@ -25,10 +25,12 @@ def test_equal_robots_and_settings_share_their_programs_and_others_do_not():
     # Built again alike, another first seed, other output settings: the same programs.
     again = shared.programs(tiny_robot(), one_episode(seed=7, output={"logger": "tensorboard"}), False, 2)
     assert again is first
+    # More episodes: the run passes its length (the step sizes' cosine) to `optimize` as a value.
+    assert shared.programs(tiny_robot(), one_episode(loop={"episodes": 3}), False, 2) is first
     others = [
         shared.programs(litl.robots.get("biped", dx=1 / 24), one_episode(), False, 2),  # other particles
         shared.programs(tiny_robot(), one_episode(controller={"learning_rate": 0.01}), False, 2),
-        shared.programs(tiny_robot(), one_episode(loop={"episodes": 2}), False, 2),  # the cosine's length
+        shared.programs(tiny_robot(), one_episode(loop={"alpha": 0.25}), False, 2),  # the soft update
         shared.programs(tiny_robot(), one_episode(seeds=3), False, 3),  # each seed's memory budget
         shared.programs(tiny_robot(), one_episode(), True, 2),  # epochs reported
         shared.programs(tiny_robot(), one_episode(), False, 1),  # learning phases one seed at a time
@@ -89,3 +91,24 @@ def test_a_run_on_shared_programs_equals_the_run_that_built_them_and_reports_its
     assert programs.epochs.to is None
     strip = lambda records: [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
     assert strip(again.metrics) == strip(built.metrics)
+
+
+def test_a_longer_run_on_shared_programs_follows_its_own_step_size_schedule(tmp_path, monkeypatch):
+    """A run of two episodes shares the programs a one-episode run built (the number of episodes
+    is passed as a value); its step sizes follow its own cosine over 2 x 2 iterations: its
+    records equal those of the same run on programs of its own, and differ from the shorter
+    run's from the second step on."""
+    stripped = lambda result: [{k: v for k, v in r.items() if k != "wall_s"} for r in result.metrics]
+    short = tiny_config(loop={"episodes": 1}, seeds=1)
+    longer = tiny_config(loop={"episodes": 2}, seeds=1)
+    built = run(tiny_robot(), short, tmp_path / "short", progress=False)
+    programs = shared.programs(tiny_robot(), short, False, 1)
+    on_shared = run(tiny_robot(), longer, tmp_path / "shared", progress=False)
+    assert shared.programs(tiny_robot(), longer, False, 1) is programs
+    monkeypatch.setenv(shared.SWITCH, "0")
+    alone = run(tiny_robot(), longer, tmp_path / "alone", progress=False)
+    assert stripped(on_shared) == stripped(alone)
+    first, second = stripped(built)[:2], stripped(on_shared)[:2]
+    assert first[0] == second[0]  # the first step is the cosine's first: a full step in both
+    assert first[1]["task_loss"] == second[1]["task_loss"]
+    assert first[1]["design_mean"] != second[1]["design_mean"]  # the second: 0.1 x against 0.78 x

@@ -44,10 +44,10 @@ def stuck_run(tmp_path_factory):
         # seed 0 from seed 1 inside the vmapped iteration.
         seed0 = np.asarray(algorithm.init(0).key)
 
-        def optimize(state):
+        def optimize(state, iterations_in_run=None):
             blow = jnp.all(state.key == seed0) & (state.iteration >= STUCK_FROM)
             design = jnp.where(blow, jnp.full_like(state.design, 1e7), state.design)
-            return algorithm.optimize(state.replace(design=design))
+            return algorithm.optimize(state.replace(design=design), iterations_in_run)
 
         return dataclasses.replace(algorithm, optimize=optimize)
 
