@@ -93,22 +93,19 @@ def test_a_run_on_shared_programs_equals_the_run_that_built_them_and_reports_its
     assert strip(again.metrics) == strip(built.metrics)
 
 
-def test_a_longer_run_on_shared_programs_follows_its_own_step_size_schedule(tmp_path, monkeypatch):
-    """A run of two episodes shares the programs a one-episode run built (the number of episodes
-    is passed as a value); its step sizes follow its own cosine over 2 x 2 iterations: its
-    records equal those of the same run on programs of its own, and differ from the shorter
-    run's from the second step on."""
-    stripped = lambda result: [{k: v for k, v in r.items() if k != "wall_s"} for r in result.metrics]
-    short = tiny_config(loop={"episodes": 1}, seeds=1)
-    longer = tiny_config(loop={"episodes": 2}, seeds=1)
-    built = run(tiny_robot(), short, tmp_path / "short", progress=False)
-    programs = shared.programs(tiny_robot(), short, False, 1)
-    on_shared = run(tiny_robot(), longer, tmp_path / "shared", progress=False)
-    assert shared.programs(tiny_robot(), longer, False, 1) is programs
-    monkeypatch.setenv(shared.SWITCH, "0")
-    alone = run(tiny_robot(), longer, tmp_path / "alone", progress=False)
-    assert stripped(on_shared) == stripped(alone)
-    first, second = stripped(built)[:2], stripped(on_shared)[:2]
-    assert first[0] == second[0]  # the first step is the cosine's first: a full step in both
-    assert first[1]["task_loss"] == second[1]["task_loss"]
-    assert first[1]["design_mean"] != second[1]["design_mean"]  # the second: 0.1 x against 0.78 x
+def test_a_longer_run_on_shared_programs_follows_its_own_step_size_schedule(tmp_path):
+    """A run of three episodes shares the programs a one-episode run built (the number of
+    episodes is passed as a value), and its step sizes follow its own cosine over 3 x 1
+    iterations: its second iteration, from where the one-episode run ended, is the shared
+    program's with a length of 3, not 1 (the second step at 0.55 x, not 0.1 x)."""
+    short, longer = one_episode(seed=3), one_episode(seed=3, loop={"episodes": 3})
+    ended = run(tiny_robot(), short, tmp_path / "short", progress=True)
+    programs = shared.programs(tiny_robot(), short, True, 2)
+    on_shared = run(tiny_robot(), longer, tmp_path / "shared", progress=True)
+    assert shared.programs(tiny_robot(), longer, True, 2) is programs
+    strip = lambda records: [{k: v for k, v in r.items() if k != "wall_s"} for r in records]
+    assert strip(on_shared.metrics[:2]) == strip(ended.metrics)  # the first episode: the same
+    second = [r["design_mean"] for r in on_shared.metrics[2:4]]
+    for length, equal in ((3, True), (1, False)):
+        _, metrics = programs.optimize(ended.state, np.int32(length))
+        assert (list(np.asarray(metrics["design_mean"])) == second) is equal, length
