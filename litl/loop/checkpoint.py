@@ -12,6 +12,7 @@ from __future__ import annotations
 import pathlib
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import orbax.checkpoint as ocp
 
@@ -46,7 +47,8 @@ class Checkpoints:
         self.manager.wait_until_finished()
 
     def restore(self, template_state, template_counters: dict):
-        """(state, counters) of the newest checkpoint that restores cleanly.
+        """(state, counters) of the newest checkpoint that restores cleanly, the state placed as
+        `template_state` is (committed to its devices or not; `_placed_like`).
 
         A newer checkpoint that fails to restore (a truncated file, missing metadata) is moved
         aside to `<checkpoints>/damaged-<episodes>` (`-2`, `-3`, ... if that name is taken; kept,
@@ -59,7 +61,8 @@ class Checkpoints:
             "state": template_state,
             "counters": {k: np.asarray(v) for k, v in template_counters.items()},
         }
-        abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, template)
+        # Read into host arrays (np.empty: no memory touched), placed like the template below.
+        abstract = jax.tree.map(lambda leaf: np.empty(np.shape(leaf), leaf.dtype), template)
         failures = []
         for step in sorted(self.manager.all_steps(), reverse=True):
             try:
@@ -79,7 +82,7 @@ class Checkpoints:
                 )
             if failures:
                 self.manager.reload()
-            return item["state"], item["counters"]
+            return jax.tree.map(_placed_like, template_state, item["state"]), item["counters"]
         listing = "; ".join(f"{step}: {reason}" for step, reason in failures)
         raise CheckpointError(
             f"no checkpoint in {self.directory} can be restored ({listing}). Start a new run "
@@ -95,3 +98,16 @@ class Checkpoints:
         while candidate.exists():
             candidate, suffix = self.directory / f"{name}-{suffix}", suffix + 1
         return candidate
+
+
+def _placed_like(template, restored: np.ndarray):
+    """`restored` where the template's leaf is: on its sharding if that leaf is committed to
+    devices, uncommitted if it is not (a fresh state's arrays), a host array if it is one. orbax
+    alone gives arrays committed to a device, and `jax.jit` compiles a second program for those:
+    one more compilation per resume, and on a compiler that rounds the two programs apart (XLA's
+    older CPU emitters do), a resumed run that is not bit for bit the uninterrupted one."""
+    if not isinstance(template, jax.Array):
+        return restored
+    if template.committed:
+        return jax.device_put(restored, template.sharding)
+    return jnp.asarray(restored)

@@ -7,6 +7,9 @@ import signal
 import subprocess
 import sys
 
+import chex
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -113,3 +116,27 @@ def test_a_checkpoint_damaged_twice_is_kept_aside_under_a_free_name(tmp_path):
         assert (tmp_path / attempt).is_dir()
         checkpoints.save(2, {"w": state["w"] * 2}, {"episodes": np.asarray(2)})
     checkpoints.close()
+
+
+def test_a_restored_state_is_placed_as_the_fresh_one_and_reuses_its_program(tmp_path):
+    """orbax alone restores arrays committed to a device, for which `jax.jit` compiles a second
+    program (one more compilation per resume, and rounding of its own). Restored leaves are placed
+    as the template's: uncommitted, committed to the same sharding, or host arrays."""
+    device = jax.devices()[0]
+    fresh = {
+        "free": jnp.arange(6.0).reshape(2, 3),
+        "placed": jax.device_put(jnp.ones(3, jnp.int32), device),
+        "host": np.full(2, 0.5),
+    }
+    checkpoints = Checkpoints(tmp_path)
+    checkpoints.save(1, jax.tree.map(lambda leaf: leaf * 2, fresh), {"episodes": np.asarray(1)})
+    restored, _ = checkpoints.restore(fresh, {"episodes": np.asarray(0)})
+    checkpoints.close()
+    assert isinstance(restored["free"], jax.Array) and not restored["free"].committed
+    assert restored["placed"].committed and restored["placed"].sharding == fresh["placed"].sharding
+    assert isinstance(restored["host"], np.ndarray)
+    chex.assert_trees_all_equal(restored, jax.tree.map(lambda leaf: leaf * 2, fresh))
+    program = jax.jit(lambda tree: jax.tree.map(lambda leaf: leaf + 1, tree))
+    program(fresh)
+    program(restored)
+    assert program._cache_size() == 1  # one program for both
