@@ -100,7 +100,10 @@ def test_best_parameters_are_saved_and_load(vae_run):
     assert [b["seed"] for b in best] == [0, 1]
     for entry in best:
         losses = [r["task_loss"] for r in vae_run.metrics if r["seed"] == entry["seed"]]
-        assert entry["task_loss"] == min(losses) and entry["step"] == int(np.argmin(losses))
+        # One value of one program, but XLA may compute it twice (into the metrics, into `best`)
+        # and round the copies apart (the older CPU emitters the tests use: by 8e-10 of -8.6e-5).
+        assert entry["task_loss"] == pytest.approx(min(losses), rel=1e-4)
+        assert entry["step"] == int(np.argmin(losses))
     saved = load_final(vae_run.run_dir, tiny_robot(), tiny_config(loop={"episodes": 3}), which="best")
     np.testing.assert_array_equal(saved["design"], vae_run.state.best.design)
     for a, b in zip(

@@ -115,7 +115,10 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     assert bool(state.stats["update_accepted"])  # the bootstrap is not checked
     safe = jax.jit(pieces.update_is_safe, static_argnums=2)
-    assert bool(safe(state, state.observer, 0.0))  # the same observer: no worse
+    # The same observer, simulated twice in one program: no worse, to rounding. XLA need not round
+    # two copies of a computation alike (the older CPU emitters the tests use put them 3e-8 apart),
+    # and the tiny run's task loss, 4.5e-5, is small beside its terms: 1% of it.
+    assert bool(safe(state, state.observer, 0.01))
     broken = state.observer.replace(scale=jnp.full_like(state.observer.scale, jnp.nan))
     assert not bool(safe(state, broken, 0.0))
     # A refused step leaves Θ as it was; an accepted one moves it.

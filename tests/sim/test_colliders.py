@@ -92,7 +92,11 @@ def test_a_floor_collider_acts_as_the_floor_wall(contact):
     walls = final(Boundary.box(2, floor=contact, sides="slip"))
     floor = Collider(HalfPlane((0.0, 1 / 24), (0.0, 1.0)), contact)
     open_floor = Boundary(walls=(Wall("slip"), Wall("slip"), Wall("open"), Wall("slip")), colliders=(floor,))
-    chex.assert_trees_all_close(walls, final(open_floor), atol=1e-6, rtol=1e-6)
+    # Two programs that compute the same physics in another order: float32 rounding over 60 steps.
+    # C (the velocity's gradient) is a difference of grid velocities over dx, so its rounding is
+    # that of v times 1/dx: compared in v's units.
+    in_v_units = lambda s: s.replace(C=s.C / 24)
+    chex.assert_trees_all_close(in_v_units(walls), in_v_units(final(open_floor)), atol=1e-5, rtol=1e-5)
 
 
 def test_gradients_through_a_friction_slope_match_central_differences(x64):

@@ -145,4 +145,6 @@ def test_a_limit_never_reached_changes_states_and_gradients_only_by_rounding():
 
         (value, final), grad = jax.jit(jax.value_and_grad(loss, has_aux=True))(sine_params(body.n_actuators))
         results.append((final.x, final.F, value, grad))
-    chex.assert_trees_all_close(results[0], results[1], rtol=1e-5, atol=1e-7)
+    # F is of order 1: atol 1e-6 is a few float32 ulps of it (its near-zero entries fail a relative
+    # check alone); a limit that acted would move it by far more.
+    chex.assert_trees_all_close(results[0], results[1], rtol=1e-5, atol=1e-6)
