@@ -121,6 +121,7 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
     assert bool(safe(state, state.observer, 0.01))
     broken = state.observer.replace(scale=jnp.full_like(state.observer.scale, jnp.nan))
     assert not bool(safe(state, broken, 0.01))  # the same tolerance: the same program
+
     # The check's verdict as an argument of one program (patched while it is traced): a refused
     # step leaves Θ as it was; an accepted one moves it.
     def learn_with(state, verdict, first):
