@@ -26,7 +26,7 @@ if "xla_backend_optimization_level" not in _flags:
     _flags = f"{_flags} --xla_backend_optimization_level=0".strip()
 
 # XLA's older CPU emitters compile in about half the time of the fusion emitters, XLA's default
-# (the suite: 22 min -> 13 min on 2 cores; docs/results/benchmarks.md). They round some
+# (the suite, back to back: 21 min -> 13.5 min on 2 cores; docs/results/benchmarks.md). They round some
 # computations differently, within the tests' float32 tolerances; every bit-identity the tests
 # claim (reruns, resumes, vmapped against sequential seeds) holds under them too. Only on the
 # jaxlib they were measured with: an XLA that lacks the flag would refuse to start.

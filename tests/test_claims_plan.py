@@ -91,7 +91,7 @@ def test_the_paper_scale_lists_its_commands(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_a_suite_runs_two_cells_at_once_and_resumes_what_was_stopped(tmp_path, capsys):
+def test_a_suite_runs_two_cells_at_once_and_a_finished_one_runs_nothing(tmp_path, capsys):
     argv = [
         "--out",
         str(tmp_path),
@@ -100,7 +100,7 @@ def test_a_suite_runs_two_cells_at_once_and_resumes_what_was_stopped(tmp_path, c
         "--panels",
         "fig4b",
         "--methods",
-        "litl",
+        "paper",
         "--jobs",
         "2",
     ]
@@ -108,7 +108,7 @@ def test_a_suite_runs_two_cells_at_once_and_resumes_what_was_stopped(tmp_path, c
     out = capsys.readouterr().out
     assert "litl.claims: the plan (smoke scale, 2 seeds):" in out and "with 2 at once" in out
     for variant in ("vae", "kmeans", "sinusoid"):
-        assert (tmp_path / "runs" / "litl" / "fig4b" / variant / "final.json").exists(), variant
+        assert (tmp_path / "runs" / "paper" / "fig4b" / variant / "final.json").exists(), variant
     assert (tmp_path / "claims.md").exists()
     # Everything finished: a second call plans nothing and runs nothing.
     assert main(argv) == 0

@@ -50,6 +50,7 @@ def _train(model, fields, steps=500, seed=0):
     return params, out
 
 
+@pytest.mark.compute_bound
 @pytest.mark.parametrize("variational", [True, False])
 def test_training_beats_predicting_the_mean(variational):
     fields = synthetic_fields(256)
@@ -162,6 +163,7 @@ def _readout_r2(codes, targets, train, held_out):
     return 1 - residual / np.var(targets[held_out], axis=0)
 
 
+@pytest.mark.compute_bound
 def test_momentum_term_makes_the_codes_tell_the_fields_mean_linearly():
     """Discs that spin, swell and shear strongly and translate slowly: the mean velocity is a
     small part of the field's energy, and three latents cannot hold all five factors. Without the
