@@ -131,7 +131,13 @@ def split_key(state: LoopState) -> tuple[LoopState, jax.Array]:
 
 
 def stack_seeds(states: list[LoopState]) -> LoopState:
-    """Stack per-seed states along a new leading axis (the seed axis)."""
+    """Stack per-seed states along a new leading axis (the seed axis): one compiled program for
+    the whole tree, where stacking leaf by leaf would compile one for each leaf's shape."""
+    return _stack(*states)
+
+
+@jax.jit
+def _stack(*states):
     return jax.tree.map(lambda *leaves: jnp.stack(leaves), *states)
 
 

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import pathlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
@@ -78,6 +80,9 @@ def autoencoder(
         variational=variational,
     )
     adam = optax.adam(learning.learning_rate)
+    # Jitted: flax's init runs the network once; op by op that is a compilation per layer and
+    # shape (seconds in a fresh process), as one program a fraction of it, with the same values.
+    init_network = jax.jit(functools.partial(vae.init_autoencoder, model, dtype=dtype))
     learner = Learner(
         window=window,
         phase=make_learning_phase(model, learning),
@@ -90,7 +95,7 @@ def autoencoder(
     )
     return Observer(
         n_features=settings.latent_dim,
-        init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
+        init=lambda key, seed: init_network(key),
         features=vae.make_observer(model, window),
         learner=learner,
         pictures=pictures,
