@@ -12,9 +12,9 @@ evaluation) and runs as little as it can; pictures off. It reports, per case:
   wall_s          the whole run, from composing the config to its last record
   compile_s       XLA compilation (backend), summed over every program the run compiled
   trace_s         tracing and lowering to StableHLO, summed
-  programs        {program: [seconds of compilation, times compiled]}, the largest first; the
-                  many small eager operations (initializers, stacking seeds) are summed under
-                  "eager (n programs)"
+  programs        {program: [seconds of compilation, times compiled]}, the largest first
+                  (the initialization's programs: init_autoencoder, _initial_state, _stack);
+                  the small eager operations left are summed under "eager (n programs)"
   peak_rss_mb     peak resident memory of the process
 """
 
@@ -34,8 +34,19 @@ from fresh_process import measure_in_fresh_process
 
 import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
 
-# Programs the run builds itself (the rest are eager operations compiled one by one).
-RUN_PROGRAMS = ("optimize", "bootstrap", "fill", "learn_seeds", "evaluate", "reconstruct")
+# Programs the run builds itself (the rest are eager operations compiled one by one), the
+# initialization's included (the VAE's initializer, the rest of a seed's state, stacking seeds).
+RUN_PROGRAMS = (
+    "optimize",
+    "bootstrap",
+    "fill",
+    "learn_seeds",
+    "evaluate",
+    "reconstruct",
+    "init_autoencoder",
+    "_initial_state",
+    "_stack",
+)
 
 
 def measure(overrides: list[str], seeds: int) -> dict:

@@ -197,10 +197,15 @@ def test_a_cell_stopped_by_kill_keeps_its_time_and_resuming_adds_to_it(tmp_path,
 
 
 @pytest.mark.slow
-def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
+def test_a_quick_suite_runs_two_cells_at_once_resumes_and_writes_every_result(tmp_path, capsys):
+    """The whole command at smoke size, its cells two at a time (each `python -m litl` in a
+    process of its own; one at a time they run in this process, as the SIGTERM test above runs
+    them), then again: everything finished, it plans and runs nothing and writes the same."""
     out = tmp_path / "claims"
     argv = ["--out", str(out), "--scale", "smoke", "--panels", "fig4b", "--methods", "paper"]
-    assert main(argv) == 0
+    assert main([*argv, "--jobs", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert "litl.claims: the plan (smoke scale, 2 seeds):" in printed and "with 2 at once" in printed
     for name in ("claims.md", "claims.csv", "table1.md", "fig4b.png", "timings.json"):
         assert (out / name).stat().st_size > 0, name
     with open(out / "claims.csv") as file:
@@ -229,9 +234,11 @@ def test_a_quick_suite_runs_resumes_and_writes_every_result(tmp_path, capsys):
     assert all(row.split(" | ")[1] == "2" and "elastic" in row for row in cell_rows)
     metrics = (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text()
     capsys.readouterr()
-    # A second call finds every run finished: it runs nothing and writes the same verdicts.
-    assert main(argv) == 0
-    assert "litl.claims: [" not in capsys.readouterr().out
+    # A second call finds every run finished: it plans nothing, runs nothing and writes the same
+    # verdicts.
+    assert main([*argv, "--jobs", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert "litl.claims: [" not in printed and "the plan" not in printed
     assert (out / "runs/paper/fig4b/vae/metrics.jsonl").read_text() == metrics
     with open(out / "claims.csv") as file:
         assert list(csv.DictReader(file)) == rows

@@ -90,31 +90,6 @@ def test_the_paper_scale_lists_its_commands(tmp_path, capsys):
     assert len(lines) == 3 and all("seeds=10" in line and "resolution=demo" not in line for line in lines)
 
 
-@pytest.mark.slow
-def test_a_suite_runs_two_cells_at_once_and_a_finished_one_runs_nothing(tmp_path, capsys):
-    argv = [
-        "--out",
-        str(tmp_path),
-        "--scale",
-        "smoke",
-        "--panels",
-        "fig4b",
-        "--methods",
-        "paper",
-        "--jobs",
-        "2",
-    ]
-    assert main(argv) == 0
-    out = capsys.readouterr().out
-    assert "litl.claims: the plan (smoke scale, 2 seeds):" in out and "with 2 at once" in out
-    for variant in ("vae", "kmeans", "sinusoid"):
-        assert (tmp_path / "runs" / "paper" / "fig4b" / variant / "final.json").exists(), variant
-    assert (tmp_path / "claims.md").exists()
-    # Everything finished: a second call plans nothing and runs nothing.
-    assert main(argv) == 0
-    assert "the plan" not in capsys.readouterr().out
-
-
 def test_a_suite_of_another_episode_count_is_refused_where_runs_of_the_first_lie(tmp_path, capsys):
     import json
 

@@ -99,7 +99,7 @@ def test_default_job_at_smoke_scale_leaves_metrics_plots_animation_and_checkpoin
     ):
         assert (tmp_path / "gallery" / name).stat().st_size > 1000, name
     # ... and replays a folder of runs (the 3D walkers') into walker_<run>.gif, demo skipped
-    # (each by `python -m litl.replay` in a process of its own).
+    # (each by `litl.replay`'s `main`, in the script's process).
     assert (
         gallery.main(["--no-demo", "--walkers", str(run_dir.parent), "--out", str(tmp_path / "walkers")]) == 0
     )

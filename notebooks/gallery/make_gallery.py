@@ -95,12 +95,12 @@ def main(argv=None) -> int:
 
 
 def replay_seed0(run: pathlib.Path, out: pathlib.Path, *options: str) -> None:
-    """`python -m litl.replay RUN --seed 0 [options]` into `out`, keeping only the animation (and
-    the gait picture, with --gait)."""
-    subprocess.run(
-        [sys.executable, "-m", "litl.replay", str(run), "--seed", "0", "--out", str(out), *options],
-        check=True,
-    )
+    """`python -m litl.replay RUN --seed 0 [options]` into `out` (its `main`, in this process:
+    replays of the same robot share their compiled programs), keeping only the animation (and the
+    gait picture, with --gait)."""
+    from litl.replay import main as replay
+
+    replay([str(run), "--seed", "0", "--out", str(out), *options])
     out.with_name(out.stem + "_design.png").unlink(missing_ok=True)
     out.with_suffix(".json").unlink(missing_ok=True)
     for written in (out, out.with_name(out.stem + "_gait.png")):
