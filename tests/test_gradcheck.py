@@ -24,11 +24,10 @@ def test_gradients_of_a_2d_and_a_3d_robot_match_central_differences(overrides, s
 
 def test_a_gradient_known_to_be_incomplete_fails_the_check():
     # Stopping the gradient through the observer's features (litl's default, on purpose) drops
-    # a real part of the derivative: the check must see it.
+    # a real part of the derivative: the check must see it. The full gradient of the same robot,
+    # steps, direction and seed passes at rtol 1e-4 (the 2D case above).
     config = compose(["robot=arm", "robot.resolution=smoke", "observer=kmeans"])
-    full, _ = check_gradients(config, steps=30, directions=1)
     stopped, _ = check_gradients(config, steps=30, directions=1, feature_gradient="stop")
-    assert max(c.relative_error for c in full) < 1e-4
     assert max(c.relative_error for c in stopped) > 1e-3
 
 
