@@ -13,7 +13,7 @@ evaluation) and runs as little as it can; pictures off. It reports, per case:
   compile_s       XLA compilation (backend), summed over every program the run compiled
   trace_s         tracing and lowering to StableHLO, summed
   programs        {program: [seconds of compilation, times compiled]}, the largest first
-                  (the initialization's programs: init_autoencoder, _initial_state, _stack);
+                  (the initialization's programs: _init_autoencoder, _initial_state, _stack);
                   the small eager operations left are summed under "eager (n programs)"
   peak_rss_mb     peak resident memory of the process
 """
@@ -43,7 +43,7 @@ RUN_PROGRAMS = (
     "learn_seeds",
     "evaluate",
     "reconstruct",
-    "init_autoencoder",
+    "_init_autoencoder",
     "_initial_state",
     "_stack",
 )

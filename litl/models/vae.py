@@ -169,9 +169,35 @@ class AutoencoderParams:
         def replace(self, **changes: Any) -> Self: ...
 
 
+# The initializer as one program, optimized as little as XLA can: it draws each layer's weights
+# once (a truncated normal per tensor, thousands of lines of HLO) and computes nothing else, so its
+# compilation is all of its cost. Op by op (flax's init outside jit) it compiled one program per
+# layer and shape; at XLA's default level 3, one program took 8.5 s for the 3D VAE; at level 0,
+# 1 s. The weights are those of level 3 to the last bit in 96% of them and within 1 ulp in the
+# rest (docs/results/benchmarks.md, "Start-up: the initialization in one program").
+INIT_COMPILER_OPTIONS = {"xla_backend_optimization_level": 0}
+
+
 def init_autoencoder(model: ConvAutoencoder, key, dtype=jnp.float32) -> AutoencoderParams:
+    """Θ for `model`: its network's initial weights (flax's initializers, drawn from `key`) and
+    an input scale of 1 (`fit_scale` sets it from data).
+
+    Called with a concrete key, one compiled program per model and dtype (`INIT_COMPILER_OPTIONS`);
+    inside another trace (jit, vmap, eval_shape) it is traced in place, as XLA takes compiler
+    options only at the top level."""
+    if isinstance(key, jax.core.Tracer):
+        return _init_autoencoder(model, key, jnp.dtype(dtype))
+    return _init_autoencoder_compiled(model, key, jnp.dtype(dtype))
+
+
+def _init_autoencoder(model: ConvAutoencoder, key, dtype) -> AutoencoderParams:
     field = jnp.zeros((1,) + tuple(model.grid_shape) + (model.dim,), dtype)
     return AutoencoderParams(network=model.init(key, field), scale=jnp.asarray(1.0, dtype))
+
+
+_init_autoencoder_compiled = jax.jit(
+    _init_autoencoder, static_argnums=(0, 2), compiler_options=INIT_COMPILER_OPTIONS
+)
 
 
 def fit_scale(params: AutoencoderParams, fields, floor=1e-6) -> AutoencoderParams:

@@ -11,13 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import functools
 import pathlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
@@ -66,15 +64,6 @@ class AutoencoderSettings(Settings):
             self._invalid("channels", "needs 5 positive integer widths")
 
 
-# The initializer as one program, optimized as little as XLA can: it draws each layer's weights
-# once (a truncated normal per tensor, thousands of lines of HLO) and computes nothing else, so its
-# compilation is all of its cost. Op by op (flax's init outside jit) it compiled one program per
-# layer and shape; at XLA's default level 3, one program took 8.5 s for the 3D VAE; at level 0,
-# 1 s. The weights are those of level 3 to the last bit in 96% of them and within 1 ulp in the
-# rest (docs/results/benchmarks.md, "Start-up: the initialization in one program").
-INIT_COMPILER_OPTIONS = {"xla_backend_optimization_level": 0}
-
-
 def autoencoder(
     robot, settings: AutoencoderSettings, context: ObserverContext, variational: bool = True
 ) -> Observer:
@@ -89,17 +78,6 @@ def autoencoder(
         variational=variational,
     )
     adam = optax.adam(learning.learning_rate)
-    init_network = jax.jit(
-        functools.partial(vae.init_autoencoder, model, dtype=dtype), compiler_options=INIT_COMPILER_OPTIONS
-    )
-
-    def init(key, seed):
-        # XLA takes compiler options only at the top level: inside another trace (jax.eval_shape
-        # of a seed's state, for the memory plan) the initializer is traced as it is.
-        if isinstance(key, jax.core.Tracer):
-            return vae.init_autoencoder(model, key, dtype)
-        return init_network(key)
-
     learner = Learner(
         window=window,
         phase=make_learning_phase(model, learning),
@@ -112,7 +90,7 @@ def autoencoder(
     )
     return Observer(
         n_features=settings.latent_dim,
-        init=init,
+        init=lambda key, seed: vae.init_autoencoder(model, key, dtype),
         features=vae.make_observer(model, window),
         learner=learner,
         pictures=pictures,

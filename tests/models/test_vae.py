@@ -1,5 +1,6 @@
 """Convolutional VAE / AE of grid velocity fields."""
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -23,6 +24,26 @@ def synthetic_fields(n, shape=(32, 32), seed=0):
         field = velocity + spin * np.stack([-r[..., 1], r[..., 0]], -1)
         fields.append(inside * field)
     return jnp.asarray(np.stack(fields), jnp.float32)
+
+
+def test_init_is_one_program_per_model_and_the_same_inside_a_trace():
+    """`init_autoencoder` compiles one program per model and dtype (at XLA's level 0, whatever
+    the caller's); traced inside the caller's jit or vmap it draws the same weights, to the
+    float32 rounding of the two levels."""
+    model = vae.ConvAutoencoder((16, 24), latent_dim=3, channels=(4, 4, 8, 8, 8))
+    key = jax.random.key(3)
+    compiled = vae._init_autoencoder_compiled
+    params = vae.init_autoencoder(model, key)
+    programs = compiled._cache_size()
+    again = vae.init_autoencoder(vae.ConvAutoencoder((16, 24), latent_dim=3, channels=(4, 4, 8, 8, 8)), key)
+    assert compiled._cache_size() == programs  # an equal model: the same program
+    chex.assert_trees_all_equal(again, params)
+    traced = jax.jit(vae.init_autoencoder, static_argnums=0)(model, key)
+    chex.assert_trees_all_close(traced, params, rtol=1e-6, atol=0)
+    batched = jax.vmap(lambda k: vae.init_autoencoder(model, k))(jnp.stack([key, jax.random.key(4)]))
+    chex.assert_trees_all_close(jax.tree.map(lambda leaf: leaf[0], batched), params, rtol=1e-6, atol=0)
+    assert compiled._cache_size() == programs  # traced in place, not through the program
+    assert float(params.scale) == 1.0 and params.scale.dtype == jnp.float32
 
 
 @pytest.mark.parametrize("grid_shape", [(64, 48), (20, 20, 20)])
