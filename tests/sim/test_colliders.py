@@ -110,8 +110,9 @@ def test_gradients_through_a_friction_slope_match_central_differences(x64):
         final, _ = rollout(action, design, state)
         return jnp.mean(final.x[:, 0]) + jnp.mean(final.x[:, 1])
 
+    loss = jax.jit(loss)
     action = jnp.array([0.3, -0.2])
-    gradient = jax.grad(loss)(action)
+    gradient = jax.jit(jax.grad(loss))(action)
     h = 1e-5
     numeric = [(loss(action.at[i].add(h)) - loss(action.at[i].add(-h))) / (2 * h) for i in range(2)]
     np.testing.assert_allclose(gradient, numeric, rtol=1e-5, atol=1e-9)
@@ -279,8 +280,9 @@ def test_gradients_through_a_moving_friction_collider_match_central_differences(
         final, _ = rollout(action, design, state)
         return jnp.mean(final.x[:, 0]) + jnp.mean(final.x[:, 1] ** 2)
 
+    loss = jax.jit(loss)
     action = jnp.array([0.3, -0.2])
-    gradient = jax.grad(loss)(action)
+    gradient = jax.jit(jax.grad(loss))(action)
     h = 1e-5
     numeric = [(loss(action.at[i].add(h)) - loss(action.at[i].add(-h))) / (2 * h) for i in range(2)]
     np.testing.assert_allclose(gradient, numeric, rtol=1e-5, atol=1e-9)
