@@ -78,8 +78,9 @@ def test_learning_lowers_validation_loss(learn, params):
     np.testing.assert_allclose(best.scale, initial.scale, rtol=1e-6)
     # The objective the phase trains: the VAE loss with the config's KL and momentum weights.
     weights = dict(beta=CONFIG.beta, momentum_weight=CONFIG.momentum_weight)
-    before = vae.losses(MODEL, initial, validation, **weights)
-    after = vae.losses(MODEL, best, validation, **weights)
+    losses = jax.jit(vae.losses, static_argnums=0, static_argnames=tuple(weights))  # one program
+    before = losses(MODEL, initial, validation, **weights)
+    after = losses(MODEL, best, validation, **weights)
     # A few dozen Adam steps only get partway down from the initial loss (seen: 0.93-0.95 of it).
     assert float(after["total"]) < 0.97 * float(before["total"])
     # The stats describe the returned parameters.
@@ -303,7 +304,8 @@ def test_learning_stats_velocity_r2_matches_an_independent_fit(params):
     best, stats = jax.jit(learning.make_learning_phase(MODEL, config))(params, buffer_of(fields, 40), key)
     split = learning.random_split(40, 40, jax.random.split(key)[0])
     x = fields / float(best.scale)
-    codes = np.asarray(MODEL.apply(best.network, jnp.asarray(x), method="encode")[0], np.float64)
+    encode = jax.jit(lambda network, x: MODEL.apply(network, x, method="encode")[0])
+    codes = np.asarray(encode(best.network, jnp.asarray(x)), np.float64)
     occupied = np.any(x != 0, axis=-1)
     target = (x * occupied[..., None]).sum((1, 2)) / occupied.sum((1, 2))[:, None]
     design = np.c_[codes, np.ones(len(codes))]
