@@ -32,12 +32,13 @@ if "xla_backend_optimization_level" not in _flags:
 # jaxlib they were measured with: an XLA that lacks a flag would refuse to start.
 import jaxlib.version  # noqa: E402
 
-# XLA's CPU compiler also splits each program's generated code into parts it optimizes on several
-# threads; with two workers on two cores those threads only contend. One part per program: the
-# same computations, about 10% less CPU time (docs/results/benchmarks.md, 2026-11-29, later).
 _measured = jaxlib.version.__version__.startswith("0.10.")
 if _measured and "xla_cpu_use_fusion_emitters" not in _flags:
     _flags = f"{_flags} --xla_cpu_use_fusion_emitters=false"
+
+# XLA's CPU compiler also splits each program's generated code into parts it optimizes on several
+# threads; with two workers on two cores those threads only contend. One part per program: the
+# same computations, about 10% less CPU time (docs/results/benchmarks.md, 2026-11-29, later).
 if _measured and "xla_cpu_parallel_codegen_split_count" not in _flags:
     _flags = f"{_flags} --xla_cpu_parallel_codegen_split_count=1"
 
