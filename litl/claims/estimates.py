@@ -39,6 +39,14 @@ def estimate(values: ArrayLike, level: float = 0.9) -> Estimate:
     return Estimate(float(mean), float(low), float(high), int(np.isfinite(array).sum()))
 
 
+def proportion(count: int, n: int, level: float = 0.9) -> Estimate:
+    """The proportion `count` / `n` of seeds with its Wilson interval at `level`."""
+    from litl.claims.stats import wilson
+
+    low, high = wilson(count, n, 1 - level)
+    return Estimate(count / n if n else math.nan, low, high, n, stuck=None)
+
+
 def falling(slope: Estimate | None) -> bool:
     """Whether a slope's interval lies below 0 (needs 2 seeds with a slope)."""
     return slope is not None and slope.n >= 2 and math.isfinite(slope.high) and slope.high < 0

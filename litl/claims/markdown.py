@@ -37,6 +37,16 @@ DETECTABLE = {
         "“A is competitive with B”: the same *detectable*, read against the margin: with δ below "
         "it, these seeds had under 80% power to show non-inferiority even if the two were equal."
     ),
+    "converges": (
+        "“A converges faster than B”: the same Welch *detectable*, on each seed's mean task loss "
+        "over every iteration of its run."
+    ),
+    "stuck": (
+        "“A gets stuck less than B”: *detectable* is the smallest difference of the two "
+        "proportions of stuck seeds (true proportions centred on the pooled one) that Fisher's "
+        "two-sided exact test at 0.05 finds with 80% power, computed exactly; at 10 seeds a side "
+        "it is about 0.6: ten seeds tell little about how often seeds get stuck."
+    ),
     "retraining": (
         "Table 1: *detectable* = (t_{0.975, n−1} + t_{0.80, n−1}) × s/√n is the smallest departure "
         "of the mean change from its threshold −δ that the two-sided one-sample test would have "

@@ -22,7 +22,7 @@ import os
 import pathlib
 
 from litl.claims import rules
-from litl.claims.estimates import Estimate
+from litl.claims.estimates import Estimate, proportion
 from litl.claims.rules import NEEDS_RUNS
 from litl.claims.stats import Summary, sd_from_interval, welch
 from litl.claims.suite import ClaimsError
@@ -147,6 +147,8 @@ def _needs_runs(claim: Claim, a: Summary, b: Summary) -> rules.Judgement:
 def rejudge_row(row: dict[str, str], level: float, where: str) -> Verdict:
     """One claims.csv row judged again by the current rules (Holm not yet applied)."""
     claim = _claim(row, where)
+    if claim.kind == "stuck":
+        return _rejudge_stuck(row, claim, level, where)
     a_estimate, a = _side(row, "a", level, where)
     b_estimate, b = _side(row, "b", level, where)
     previous = row["verdict"]
@@ -159,6 +161,30 @@ def rejudge_row(row: dict[str, str], level: float, where: str) -> Verdict:
     verdict = from_judgement(claim, row["method"], a_estimate, b_estimate, judgement)
     return dataclasses.replace(
         verdict, previous_verdict=previous, previous_holm_verdict=row.get("holm_verdict") or ""
+    )
+
+
+def _rejudge_stuck(row: dict[str, str], claim: Claim, level: float, where: str) -> Verdict:
+    """A "stuck" row: each side's proportion of stuck seeds and seed count give back the counts
+    that Fisher's test reads (the threshold that made them is the record's own)."""
+    assert claim.b is not None  # a comparison names both sides
+    counts = []
+    for side in ("a", "b"):
+        rate, n = _number(row, f"{side}_mean", where), _number(row, f"{side}_n", where)
+        n_seeds = 0 if math.isnan(n) else int(n)
+        count = round(rate * n_seeds) if math.isfinite(rate) else 0
+        if n_seeds and not math.isclose(count, rate * n_seeds, abs_tol=1e-6):
+            raise ClaimsError(
+                f"--rejudge: {where}: {side}'s proportion {rate} of {n_seeds} seeds is no count"
+            )
+        counts.append((count, n_seeds))
+    (a_count, a_n), (b_count, b_n) = counts
+    judgement = rules.stuck(a_count, a_n, b_count, b_n, claim.a, claim.b, threshold=None)
+    verdict = from_judgement(
+        claim, row["method"], proportion(a_count, a_n, level), proportion(b_count, b_n, level), judgement
+    )
+    return dataclasses.replace(
+        verdict, previous_verdict=row["verdict"], previous_holm_verdict=row.get("holm_verdict") or ""
     )
 
 
@@ -175,4 +201,28 @@ def rejudge(path: str | os.PathLike[str], level: float = 0.9) -> list[Verdict]:
         claim litl knows or whose numbers cannot be read.
     """
     rows = read_claims_csv(path)
-    return with_holm([rejudge_row(row, level, f"{path}, line {i}") for i, row in enumerate(rows, start=2)])
+    judged = [rejudge_row(row, level, f"{path}, line {i}") for i, row in enumerate(rows, start=2)]
+    return with_holm(judged + needs_per_seed_records(judged, path))
+
+
+PER_SEED_KINDS = ("converges", "stuck")
+
+
+def needs_per_seed_records(judged: list[Verdict], path: str | os.PathLike[str]) -> list[Verdict]:
+    """The claims whose rules read each seed's curve (`PER_SEED_KINDS`: convergence, stuck seeds)
+    that the table's cells could be judged on but a claims.csv cannot: one NEEDS_RUNS row per
+    such claim and method whose two variants the table compared, saying what the record lacks."""
+    compared = {(v.method, v.claim.panel, name) for v in judged for name in (v.claim.a, v.claim.b) if name}
+    lacking = (
+        f"needs the runs: {path} holds each variant's mean, interval and seed count, not each "
+        f"seed's task loss per iteration, which this rule reads (the runs' metrics.jsonl were not kept)"
+    )
+    methods = sorted({v.method for v in judged})
+    return [
+        Verdict(claim, method, None, None, math.nan, NEEDS_RUNS, lacking)
+        for claim in CLAIMS
+        if claim.kind in PER_SEED_KINDS and claim.b is not None
+        for method in methods
+        if {(method, claim.panel, claim.a), (method, claim.panel, claim.b)} <= compared
+        and not any(v.claim is claim and v.method == method for v in judged)
+    ]

@@ -17,9 +17,17 @@ family-wise error at 0.05:
 - `retraining`, Table 1: a one-sample two-sided t-test of the mean change against -MARGIN x the
   progress per episode; holds when the mean lies above with p < ALPHA (its 95% interval lies
   above), contradicted when below with p < ALPHA.
+- `converges`, "A converges faster than B": Welch's two-sided t-test of each seed's mean task
+  loss over every iteration of its run (the area under its learning curve; a curve that falls
+  sooner has a lower mean); holds when A's is lower with p < ALPHA, contradicted when higher.
+- `stuck`, "A gets stuck near the start less often than B": a seed is stuck when its progress
+  (task loss at its first iteration minus its final task loss) is below STUCK_FRACTION of the
+  median progress of the two variants' seeds pooled; Fisher's exact two-sided test of the two
+  proportions; holds when fewer of A's seeds are stuck with p < ALPHA, contradicted when more.
 
 Each judgement also gives the 95% interval of the difference, and the smallest difference the
-seeds could have detected with POWER = 80% (`litl.claims.stats.Difference.detectable`).
+seeds could have detected with POWER = 80% (`litl.claims.stats.Difference.detectable`; for a
+proportion, `litl.claims.stats.fisher_detectable`).
 """
 
 from __future__ import annotations
@@ -27,11 +35,15 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from litl.claims.stats import Difference, Summary, one_sample, welch
+from litl.claims.stats import Difference, Summary, fisher_detectable, fisher_exact, one_sample, welch, wilson
 
 ALPHA = 0.05
 MARGIN = 0.1
 POWER = 0.8
+# A seed is stuck near its start when it made less than this fraction of the median progress of
+# the two compared variants' seeds (fixed on 2026-12-02, before the runs it judges:
+# docs/guide/claims.md).
+STUCK_FRACTION = 0.25
 HOLDS, NOT_RESOLVED, CONTRADICTED, NO_DATA = "holds", "not resolved", "contradicted", "no data"
 # A row re-judged from a claims.csv that lacks what its rule needs (`litl.claims.rejudge`).
 NEEDS_RUNS = "needs the runs"
@@ -45,6 +57,17 @@ COMPETITIVE_RULE = (
     "iteration's task loss minus its final one); holds if the upper end of the 95% Welch interval "
     "of {a} − {b} lies below δ (one-sided 0.025), contradicted if its lower end lies above δ; "
     "else not resolved"
+)
+CONVERGES_RULE = (
+    "convergence measure: each seed's mean task loss over all {iterations} iterations of its run "
+    "(skipped ones carry its last good loss); holds if {a}'s is lower than {b}'s with two-sided "
+    "Welch p < {alpha}; contradicted if higher with p < {alpha}; else not resolved"
+)
+STUCK_RULE = (
+    "a seed is stuck when its progress (first iteration's task loss minus final) is below "
+    "{fraction:.0%} of the pooled median progress of {a} and {b} ({threshold}); holds if fewer of "
+    "{a}'s seeds are stuck than of {b}'s with two-sided Fisher exact p < {alpha}; contradicted if "
+    "more; else not resolved"
 )
 RETRAINING_RULE = (
     "holds if the mean change lies above −{margin:g} × the mean progress per episode with "
@@ -169,3 +192,55 @@ def retraining(change: Summary, progress: Summary) -> Judgement:
     verdict = _by_sign(difference, HOLDS, CONTRADICTED)
     rule = RETRAINING_RULE.format(margin=MARGIN, alpha=ALPHA)
     return Judgement(difference.p, verdict, rule, difference.p, **_measured(difference), margin=margin)
+
+
+def converges(a: Summary, b: Summary, a_name: str, b_name: str, iterations: int) -> Judgement:
+    """A "converges faster" claim: each side's per-seed mean task loss over all `iterations`
+    iterations (`litl.claims.verdicts.convergence_measures`), Welch's two-sided test."""
+    if (missing := too_few(a, b)) is not None:
+        return missing
+    difference = welch(a, b)
+    verdict = _by_sign(difference, CONTRADICTED, HOLDS)
+    rule = CONVERGES_RULE.format(a=a_name, b=b_name, alpha=ALPHA, iterations=iterations)
+    return Judgement(difference.p, verdict, rule, difference.p, **_measured(difference))
+
+
+def stuck(
+    a_stuck: int, a_n: int, b_stuck: int, b_n: int, a_name: str, b_name: str, threshold: float | None
+) -> Judgement:
+    """A "gets stuck less" claim: `a_stuck` of `a_n` seeds against `b_stuck` of `b_n` (stuck by
+    the progress `threshold`, `litl.claims.verdicts.stuck_near_start`), Fisher's exact two-sided
+    test; the difference is a's proportion minus b's, its interval the difference of two Wilson
+    intervals' ends (Newcombe's method 10), the detectable difference `fisher_detectable`.
+    `threshold` None: the counts come from a record that applied the rule (re-judging a claims.csv)."""
+    if a_n < 2 or b_n < 2:
+        return Judgement(math.nan, NO_DATA, "needs at least 2 seeds with a progress in each", math.nan)
+    if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
+        why = f"not resolved: the pooled median progress of {a_name} and {b_name} is not positive, so no seed can be told stuck"
+        return Judgement(math.nan, NOT_RESOLVED, why, math.nan)
+    p = fisher_exact(a_stuck, a_n, b_stuck, b_n)
+    estimate = a_stuck / a_n - b_stuck / b_n
+    verdict = NOT_RESOLVED if not p < ALPHA else (HOLDS if estimate < 0 else CONTRADICTED)
+    a_low, a_high = wilson(a_stuck, a_n, ALPHA)
+    b_low, b_high = wilson(b_stuck, b_n, ALPHA)
+    a_p, b_p = a_stuck / a_n, b_stuck / b_n
+    low = estimate - math.sqrt((a_p - a_low) ** 2 + (b_high - b_p) ** 2)
+    high = estimate + math.sqrt((a_high - a_p) ** 2 + (b_p - b_low) ** 2)
+    rule = STUCK_RULE.format(
+        fraction=STUCK_FRACTION,
+        a=a_name,
+        b=b_name,
+        alpha=ALPHA,
+        threshold="as the record counted" if threshold is None else f"{threshold:.3g}",
+    )
+    pooled = (a_stuck + b_stuck) / (a_n + b_n)
+    return Judgement(
+        p,
+        verdict,
+        rule,
+        p,
+        difference=estimate,
+        difference_low=low,
+        difference_high=high,
+        detectable=fisher_detectable(a_n, b_n, pooled, ALPHA, POWER),
+    )

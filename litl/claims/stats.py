@@ -18,6 +18,7 @@ functions: a claims.csv's 90% interval gives back its side's standard deviation
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -170,3 +171,53 @@ def holm(p_values: ArrayLike) -> np.ndarray:
     scaled = p[order] * (n - np.arange(n))
     adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
     return adjusted
+
+
+def fisher_exact(a_count: int, a_n: int, b_count: int, b_n: int) -> float:
+    """Fisher's exact two-sided p-value that `a_count` of `a_n` and `b_count` of `b_n` come from
+    one proportion (`scipy.stats.fisher_exact` on the 2 x 2 table)."""
+    from scipy.stats import fisher_exact as fisher
+
+    table = [[a_count, a_n - a_count], [b_count, b_n - b_count]]
+    return float(fisher(table, alternative="two-sided").pvalue)
+
+
+def wilson(count: int, n: int, alpha: float) -> tuple[float, float]:
+    """The Wilson score interval of the proportion `count` / `n` at 1 - `alpha` (two-sided)."""
+    if n < 1:
+        return math.nan, math.nan
+    z = float(t_quantile(1 - alpha / 2, math.inf))
+    p = count / n
+    centre = (p + z**2 / (2 * n)) / (1 + z**2 / n)
+    half = z * math.sqrt(p * (1 - p) / n + z**2 / (4 * n**2)) / (1 + z**2 / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@functools.lru_cache(maxsize=32)
+def _fisher_rejects(a_n: int, b_n: int, alpha: float) -> np.ndarray:
+    """(a_n + 1, b_n + 1) bool: whether Fisher's two-sided test at `alpha` rejects each outcome."""
+    return np.array([[fisher_exact(x, a_n, y, b_n) < alpha for y in range(b_n + 1)] for x in range(a_n + 1)])
+
+
+def fisher_power(a_n: int, b_n: int, a_rate: float, b_rate: float, alpha: float) -> float:
+    """The exact probability that Fisher's two-sided test at `alpha` rejects, with `a_n` and
+    `b_n` seeds whose true proportions are `a_rate` and `b_rate` (every outcome enumerated)."""
+    from scipy.stats import binom
+
+    a_probability = binom.pmf(np.arange(a_n + 1), a_n, a_rate)
+    b_probability = binom.pmf(np.arange(b_n + 1), b_n, b_rate)
+    return float(a_probability @ _fisher_rejects(a_n, b_n, alpha) @ b_probability)
+
+
+def fisher_detectable(a_n: int, b_n: int, pooled: float, alpha: float, power: float) -> float:
+    """The smallest difference of two proportions that Fisher's two-sided test at `alpha`
+    detects with probability `power`, with true proportions centred on `pooled` (pooled ± d/2,
+    moved inside [0, 1] where they would leave it); inf when no difference can (too few seeds).
+    Searched on a grid of 0.01."""
+    centre = min(max(pooled, 0.0), 1.0) if math.isfinite(pooled) else 0.5
+    for step in range(1, 101):
+        d = step / 100
+        low = min(max(centre - d / 2, 0.0), 1.0 - d)
+        if fisher_power(a_n, b_n, low, low + d, alpha) >= power:
+            return d
+    return math.inf

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from litl.claims import rules
-from litl.claims.estimates import CutCheck, Estimate, estimate
+from litl.claims.estimates import CutCheck, Estimate, estimate, proportion
 from litl.claims.rules import (  # noqa: F401  (ALPHA and the verdicts re-exported: the tables' names)
     ALPHA,
     CONTRADICTED,
@@ -50,6 +50,7 @@ from litl.claims.rules import (  # noqa: F401  (ALPHA and the verdicts re-export
     after_holm,
 )
 from litl.claims.stats import Summary, holm, summarize
+from litl.claims.suite import ClaimsError
 from litl.report.runs import Group
 from litl.report.stats import final_window_values, series, series_ends
 
@@ -65,7 +66,9 @@ class Claim:
       panel: the `litl.claims.suite.Panel` name it is measured on.
       statement: the claim in words.
       kind: ``"beats"`` (a's final task loss lower than b's), ``"competitive"`` (a not worse
-        than b) or ``"retraining"`` (Table 1, on variant a alone).
+        than b), ``"converges"`` (a's mean task loss over the run lower than b's),
+        ``"stuck"`` (fewer of a's seeds stuck near their start than of b's) or ``"retraining"``
+        (Table 1, on variant a alone).
       a, b: variant names (b is None for ``"retraining"``).
       source: where the claim comes from (the paper's section, or litl).
       comparator: an optional comparator's claim, judged only where its variant was run
@@ -120,6 +123,24 @@ CLAIMS = (
         "paper, Fig. 4b",
     ),
     Claim(
+        "4b-vae-converges-faster",
+        "fig4b",
+        "on the biped, the VAE converges faster than k-means",
+        "converges",
+        "vae",
+        "kmeans",
+        "paper, Discussion",
+    ),
+    Claim(
+        "4b-vae-stuck-less",
+        "fig4b",
+        "on the biped, the VAE gets stuck near its start less often than k-means (the paper: k-means in 4 of 10)",
+        "stuck",
+        "vae",
+        "kmeans",
+        "paper, Sec. 5 (2D Biped) and Discussion",
+    ),
+    Claim(
         "4b-vae-beats-open-loop",
         "fig4b",
         "on the biped, the VAE's closed loop beats open-loop sinusoids",
@@ -163,6 +184,24 @@ CLAIMS = (
         "vae",
         "kmeans",
         "paper, Fig. 4d",
+    ),
+    Claim(
+        "4d-vae-converges-faster",
+        "fig4d",
+        "on the bunny, the VAE converges faster than k-means",
+        "converges",
+        "vae",
+        "kmeans",
+        "paper, Discussion",
+    ),
+    Claim(
+        "4d-vae-stuck-less",
+        "fig4d",
+        "on the bunny, the VAE gets stuck near its start less often than k-means",
+        "stuck",
+        "vae",
+        "kmeans",
+        "paper, Discussion",
     ),
     Claim(
         "4d-vae-beats-open-loop",
@@ -232,6 +271,57 @@ def progress(group: Group) -> np.ndarray:
             first[row] = losses[finite[0]]
     result: np.ndarray = first - final_losses(group)
     return result
+
+
+def convergence_measures(group: Group, iterations: int) -> np.ndarray:
+    """(seeds,) each seed's convergence measure: its mean task loss over the first `iterations`
+    iterations of its run, a skipped iteration counting with the seed's last good loss before it
+    (its first good one, before any). Lower is faster (and further).
+
+    Raises:
+      ClaimsError: a seed of `group` has fewer than `iterations` iterations recorded (the message
+        names its run directory and what it lacks).
+    """
+    _, values = series(group, "task_loss")
+    rows = series_ends(group)
+    for (index, end), row in zip(rows, values, strict=True):
+        recorded = sum(1 for r in group.runs[index].records if int(r["seed"]) == end.seed)
+        if recorded < iterations:
+            raise ClaimsError(
+                f"{group.runs[index].path}: seed {end.seed} has {recorded} iterations, but the "
+                f"convergence measure needs {iterations} (the mean over every iteration of the "
+                f"compared runs): finish the run (it resumes) or compare runs of one length"
+            )
+    measures = np.full(len(values), math.nan)
+    for r, losses in enumerate(values[:, :iterations]):
+        finite = np.flatnonzero(np.isfinite(losses))
+        if not len(finite):
+            continue
+        filled = losses.copy()
+        filled[: finite[0]] = losses[finite[0]]
+        for t in range(finite[0] + 1, len(filled)):
+            if not np.isfinite(filled[t]):
+                filled[t] = filled[t - 1]
+        measures[r] = float(filled.mean())
+    return measures
+
+
+def run_length(*groups: Group) -> int:
+    """The most iterations any seed of `groups` recorded: the length the convergence measure
+    compares over."""
+    return max(len(series(group, "task_loss")[0]) for group in groups)
+
+
+def stuck_near_start(a_progress: np.ndarray, b_progress: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Which seeds of two compared variants are stuck near their start: progress below
+    `rules.STUCK_FRACTION` of the median progress of both variants' seeds pooled (NaN progress:
+    left out). Returns (a's flags, b's flags, the threshold); the flags of seeds without a
+    progress are False and they are not counted (`finite` masks)."""
+    pooled = np.concatenate([a_progress, b_progress])
+    pooled = pooled[np.isfinite(pooled)]
+    threshold = rules.STUCK_FRACTION * float(np.median(pooled)) if len(pooled) else math.nan
+    flag = lambda values: np.isfinite(values) & (values < threshold)  # noqa: E731
+    return flag(a_progress), flag(b_progress), threshold
 
 
 @dataclasses.dataclass(frozen=True)
@@ -357,6 +447,23 @@ def judge(claim: Claim, method: str, groups: dict[str, Group], level: float = 0.
         return from_judgement(claim, method, a, b, judgement)
     assert claim.b is not None  # a comparison names both sides
     a_group, b_group = groups[claim.a], groups[claim.b]
+    if claim.kind == "converges":
+        length = run_length(a_group, b_group)
+        a_values, b_values = convergence_measures(a_group, length), convergence_measures(b_group, length)
+        judgement = rules.converges(summarize(a_values), summarize(b_values), claim.a, claim.b, length)
+        return from_judgement(claim, method, estimate(a_values, level), estimate(b_values, level), judgement)
+    if claim.kind == "stuck":
+        a_progress, b_progress = progress(a_group), progress(b_group)
+        a_flags, b_flags, threshold = stuck_near_start(a_progress, b_progress)
+        a_n, b_n = int(np.isfinite(a_progress).sum()), int(np.isfinite(b_progress).sum())
+        judgement = rules.stuck(int(a_flags.sum()), a_n, int(b_flags.sum()), b_n, claim.a, claim.b, threshold)
+        return from_judgement(
+            claim,
+            method,
+            proportion(int(a_flags.sum()), a_n, level),
+            proportion(int(b_flags.sum()), b_n, level),
+            judgement,
+        )
     a_values, b_values = final_losses(a_group), final_losses(b_group)
     reference = summarize(progress(b_group)).mean if claim.kind == "competitive" else math.nan
     judgement = compare(claim, summarize(a_values), summarize(b_values), reference)
