@@ -116,7 +116,8 @@ def test_the_claims_table_shows_holm_first_and_the_paper_caveat(tmp_path):
     assert f"the table makes {len(results)} tests at once" in text
     assert "is the primary verdict" in text
     rows = [line for line in text.splitlines() if line.startswith("| on the biped")]
-    assert len(rows) == 8  # four comparisons (final distance, convergence, stuck seeds, open loop), two methods
+    # Four comparisons (final distance, convergence, stuck seeds, open loop) under two methods.
+    assert len(rows) == 8
     for row in rows:
         assert ("(†)" in row) == ("| paper |" in row), row
     assert "(†) method=paper is litl's reading of the paper's text" in text

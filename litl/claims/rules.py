@@ -216,7 +216,10 @@ def stuck(
     if a_n < 2 or b_n < 2:
         return Judgement(math.nan, NO_DATA, "needs at least 2 seeds with a progress in each", math.nan)
     if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
-        why = f"not resolved: the pooled median progress of {a_name} and {b_name} is not positive, so no seed can be told stuck"
+        why = (
+            f"not resolved: the pooled median progress of {a_name} and {b_name} is not positive, "
+            "so no seed can be told stuck"
+        )
         return Judgement(math.nan, NOT_RESOLVED, why, math.nan)
     p = fisher_exact(a_stuck, a_n, b_stuck, b_n)
     estimate = a_stuck / a_n - b_stuck / b_n

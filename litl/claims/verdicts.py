@@ -134,7 +134,8 @@ CLAIMS = (
     Claim(
         "4b-vae-stuck-less",
         "fig4b",
-        "on the biped, the VAE gets stuck near its start less often than k-means (the paper: k-means in 4 of 10)",
+        "on the biped, the VAE gets stuck near its start less often than k-means (the paper: "
+        "k-means in 4 of 10)",
         "stuck",
         "vae",
         "kmeans",
@@ -283,8 +284,7 @@ def convergence_measures(group: Group, iterations: int) -> np.ndarray:
         names its run directory and what it lacks).
     """
     _, values = series(group, "task_loss")
-    rows = series_ends(group)
-    for (index, end), row in zip(rows, values, strict=True):
+    for index, end in series_ends(group):
         recorded = sum(1 for r in group.runs[index].records if int(r["seed"]) == end.seed)
         if recorded < iterations:
             raise ClaimsError(
