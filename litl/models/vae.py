@@ -245,7 +245,9 @@ def loss_terms(
     """`losses` plus what held-out evaluation needs from the same forward pass.
 
     Returns the dict of `losses` and: signal, the mean squared normalized input (the error of
-    predicting an empty field, for `explained_variance`); code, the (B, r) encoder means.
+    predicting an empty field, for `explained_variance`); code, the (B, r) encoder means;
+    distance, the mean over nodes of |reconstruction - field| in the field's own units (the
+    paper's Fig. 5 unit, "average pixel distance").
     """
     x = fields / params.scale
     # flax types `apply` as returning Any or (Any, variables): the type checker cannot tell which.
@@ -266,6 +268,7 @@ def loss_terms(
         "total": fit + beta * kl / np.prod(x.shape[1:]),
         "signal": jnp.mean(x**2),
         "code": mean,
+        "distance": jnp.mean(jnp.sqrt(jnp.sum((reconstruction - x) ** 2, axis=-1))) * params.scale,
     }
 
 

@@ -113,6 +113,7 @@ def empty_statistics(dtype, max_epochs: int, dim: int) -> LearningStats:
         epochs_used=zero,
         best_epoch=zero,
         val_recon_history=jnp.full((max_epochs,), jnp.nan, dtype),
+        val_distance_history=jnp.full((max_epochs,), jnp.nan, dtype),
         steps_per_epoch=zero,
         update_accepted=jnp.ones((), bool),
     )
@@ -136,6 +137,7 @@ def records(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
         "sgd_steps": used * steps_per_epoch,
         **repeated,
         "val_recon_history": np.asarray(statistics["val_recon_history"])[:used],
+        "val_distance_history": np.asarray(statistics["val_distance_history"])[:used],
     }
     return phase, {**repeated, "learning_epochs": statistics["epochs_used"]}
 

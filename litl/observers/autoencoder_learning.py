@@ -93,6 +93,9 @@ class LearningStats:
       best_epoch: () int32 epoch (1-based) whose parameters were kept; 0 if no epoch ran or none
         reached a finite validation loss (the parameters are then returned untrained).
       val_recon_history: (max_epochs,) validation reconstruction loss per epoch (NaN: not run).
+      val_distance_history: (max_epochs,) the validation half's mean reconstruction error per
+        grid node, |D(E(v)) - v| in the field's units, per epoch (the paper's Fig. 5: "average
+        pixel distance"; NaN: not run).
       steps_per_epoch: () int32 SGD steps (minibatches) per epoch.
       update_accepted: () bool, whether the observer took this phase's soft update (False: the
         loop's check `loop.safeguards.update_tolerance` kept the old observer; True where unchecked).
@@ -108,6 +111,7 @@ class LearningStats:
     epochs_used: jnp.ndarray
     best_epoch: jnp.ndarray
     val_recon_history: jnp.ndarray
+    val_distance_history: jnp.ndarray
     steps_per_epoch: jnp.ndarray
     update_accepted: jnp.ndarray
 
@@ -136,6 +140,7 @@ class _LearningState:
       best_epoch: () int32 epoch that reached it.
       stale_epochs: () int32 epochs since the last improvement.
       val_recon_history: (max_epochs,) validation reconstruction loss per epoch (NaN: not run).
+      val_distance_history: (max_epochs,) validation mean error per node per epoch (NaN: not run).
     """
 
     epoch: jnp.ndarray
@@ -146,6 +151,7 @@ class _LearningState:
     best_epoch: jnp.ndarray
     stale_epochs: jnp.ndarray
     val_recon_history: jnp.ndarray
+    val_distance_history: jnp.ndarray
 
 
 def _broadcast_mask(mask, like):
@@ -329,6 +335,7 @@ class LearningPhase:
         width = latent_dim + 1
         sums = {
             "recon": zero,
+            "distance": zero,
             "kl": zero,
             "total": zero,
             "signal": zero,
@@ -409,6 +416,9 @@ class LearningPhase:
             val_recon_history=state.val_recon_history.at[state.epoch].set(
                 means["recon"].astype(state.val_recon_history.dtype)
             ),
+            val_distance_history=state.val_distance_history.at[state.epoch].set(
+                means["distance"].astype(state.val_distance_history.dtype)
+            ),
         )
 
     def keep_going(self, enough, steps_per_epoch, state: _LearningState):
@@ -442,6 +452,7 @@ class LearningPhase:
             epochs_used=final.epoch,
             best_epoch=final.best_epoch,
             val_recon_history=final.val_recon_history,
+            val_distance_history=final.val_distance_history,
             steps_per_epoch=steps_per_epoch,
             update_accepted=jnp.ones((), bool),
         )
@@ -481,6 +492,7 @@ class LearningPhase:
             best_epoch=zero,
             stale_epochs=zero,
             val_recon_history=jnp.full((self.config.max_epochs,), jnp.nan, params.scale.dtype),
+            val_distance_history=jnp.full((self.config.max_epochs,), jnp.nan, params.scale.dtype),
         )
         final = jax.lax.while_loop(
             lambda state: self.keep_going(enough, steps_per_epoch, state),

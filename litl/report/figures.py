@@ -156,8 +156,16 @@ def plot_recon_sgd(
     """Validation reconstruction loss after every epoch vs optimizer (SGD) step (Fig. 5).
 
     One thin line per seed, in its label's colour; the steps of successive learning phases are
-    counted one after another (phase 0 is the initial training). Returns None without data.
+    counted one after another (phase 0 is the initial training). In the paper's unit, the mean
+    reconstruction error per grid node |D(E(v)) - v| (average pixel distance), where the runs
+    recorded it (`val_distance_history`, since 2026-12-02); older runs: the mean squared error per
+    value of the normalized field. Returns None without data.
     """
+    key = (
+        "val_distance_history"
+        if all("val_distance_history" in r for g in groups for run in g.runs for r in run.learning)
+        else "val_recon_history"
+    )
     robots = list(dict.fromkeys(g.robot for g in groups))
     figure = Figure(figsize=(6.4, 4.2 * len(robots)))
     drawn = False
@@ -169,12 +177,12 @@ def plot_recon_sgd(
                 for seed in sorted({r["seed"] for r in run.learning}):
                     # Phases that learn by SGD steps (an autoencoder's) have a history per epoch.
                     phases = sorted(
-                        (r for r in run.learning if r["seed"] == seed and "val_recon_history" in r),
+                        (r for r in run.learning if r["seed"] == seed and key in r),
                         key=lambda r: r["phase"],
                     )
                     x, y, start = [], [], 0
                     for phase in phases:
-                        history = [np.nan if v is None else v for v in phase["val_recon_history"]]
+                        history = [np.nan if v is None else v for v in phase[key]]
                         x += [start + (e + 1) * phase["steps_per_epoch"] for e in range(len(history))]
                         y += history
                         start = x[-1] if x else start
@@ -190,7 +198,11 @@ def plot_recon_sgd(
                         first, drawn = False, True
         ax.set_title(robot)
         ax.set_xlabel("SGD step (learning phases one after another)")
-        ax.set_ylabel("validation reconstruction loss")
+        ax.set_ylabel(
+            "validation error per node |D(E(v)) - v|"
+            if key == "val_distance_history"
+            else "validation reconstruction loss (MSE per value)"
+        )
         ax.set_yscale("log")
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:

@@ -89,6 +89,13 @@ def test_learning_lowers_validation_loss(learn, params):
     np.testing.assert_allclose(stats.kl, after["kl"], rtol=1e-5)
     assert np.isfinite(float(stats.recon_loss_train))
     assert_stopping_rule(stats, CONFIG)
+    # Fig. 5's unit: the best epoch's mean error per node |D(E(v)) - v|, in the field's units.
+    distance = jax.jit(vae.per_pixel_reconstruction_loss, static_argnums=0)(MODEL, best, validation)
+    best_epoch = int(stats.best_epoch) - 1
+    np.testing.assert_allclose(stats.val_distance_history[best_epoch], distance, rtol=1e-5)
+    epochs = int(stats.epochs_used)
+    assert np.all(np.isfinite(stats.val_distance_history[:epochs]))
+    assert np.all(np.isnan(stats.val_distance_history[epochs:]))
 
 
 def test_early_stopping_when_validation_cannot_improve(params):
