@@ -98,6 +98,9 @@ class Method(enum.StrEnum):
 
     litl = "litl"
     paper = "paper"
+    # The reading of the paper used until 2026-12-01 (its first learning phase collapses in most
+    # seeds at dx 1/128): kept to compare runs with, `litl/conf/method/paper_first_reading.yaml`.
+    paper_first_reading = "paper_first_reading"
 
 
 class DType(enum.StrEnum):

@@ -33,6 +33,8 @@ PAPER = {
     "loop.learning.max_steps": None,
     "loop.learning.patience_steps": None,
     "loop.learning.momentum_weight": 0.0,
+    "loop.learning.learning_rate": 0.001,
+    "loop.learning.patience": 20,
 }
 LITL = {
     "observer.vae.window": 0.5,
@@ -49,7 +51,12 @@ LITL = {
     "loop.learning.max_steps": 320,
     "loop.learning.patience_steps": 100,
     "loop.learning.momentum_weight": 0.3,
+    "loop.learning.learning_rate": 0.003,
+    "loop.learning.patience": 5,
 }
+# litl's first reading of the paper (method=paper_first_reading, used until 2026-12-01): the
+# paper's reading with litl's learning-phase step size and a patience of 5 epochs.
+FIRST_READING = {**PAPER, "loop.learning.learning_rate": 0.003, "loop.learning.patience": 5}
 PRESETS = (
     "fig4a_arm",
     "fig4b_biped",
@@ -70,6 +77,18 @@ def settings(config: Config) -> dict:
     the chosen one's only)."""
     recorded = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
     return {k: v for k, v in flatten(config.to_tree()).items() if k.split(".")[0] in recorded}
+
+
+def test_the_first_reading_differs_from_the_paper_in_the_learning_phase_only():
+    first = settings(compose(["method=paper_first_reading"]))
+    paper = settings(compose(["method=paper"]))
+    assert first["method"] == "paper_first_reading"
+    assert {key: first[key] for key in FIRST_READING} == pytest.approx(FIRST_READING)
+    assert sorted(k for k in paper if paper[k] != first[k]) == [
+        "loop.learning.learning_rate",
+        "loop.learning.patience",
+        "method",
+    ]
 
 
 def test_method_paper_sets_every_key_to_the_papers_value():

@@ -88,7 +88,7 @@ def _previous(v: Verdict) -> str:
 
 
 def _row(v: Verdict, rejudged: bool) -> str:
-    caveat = " (†)" if v.method == "paper" else ""
+    caveat = " (†)" if v.method.startswith("paper") else ""
     flag = " (‡)" if _flagged(v) else ""
     cells = [
         v.claim.statement,
@@ -205,7 +205,7 @@ def _rules(results: list[Verdict]) -> list[str]:
 
 def _footnotes(results: list[Verdict]) -> list[str]:
     lines = []
-    if any(v.method == "paper" for v in results):
+    if any(v.method.startswith("paper") for v in results):
         lines += ["", f"(†) {PAPER_CAVEAT}"]
     if any(_flagged(v) for v in results):
         lines += [
