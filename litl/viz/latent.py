@@ -223,7 +223,11 @@ def draw_snapshots(
 
 
 def draw_latent_sweeps(
-    model: ConvAutoencoder, observer_params: AutoencoderParams, values=(-1.0, -0.5, 0.0, 0.5, 1.0), path=None
+    model: ConvAutoencoder,
+    observer_params: AutoencoderParams,
+    values=(-1.0, -0.5, 0.0, 0.5, 1.0),
+    path=None,
+    order=None,
 ) -> Figure:
     """Decoded one-hot latent vectors, each latent swept over `values` (paper Fig. 8).
 
@@ -238,6 +242,8 @@ def draw_latent_sweeps(
       observer_params: its parameters (one seed).
       values: (V,) latent values to decode.
       path: if given, also save the figure there.
+      order: the latents' rows, top to bottom (default 0, 1, ..., r - 1; e.g. by significance,
+        `litl.report.latent_modes`); each row is labelled with its latent's index.
 
     Returns:
       The figure; its field Axes carry the gid ``"sweep"``, row by row (r rows of V d Axes).
@@ -251,6 +257,9 @@ def draw_latent_sweeps(
     if values.ndim != 1 or len(values) == 0 or not np.all(np.isfinite(values)):
         raise VizError(f"values must be a non-empty 1D array of finite numbers, got {values!r}")
     r, d, count = model.latent_dim, model.dim, len(values)
+    order = list(range(r)) if order is None else [int(i) for i in order]
+    if sorted(order) != list(range(r)):
+        raise VizError(f"order must list each of the {r} latents once, got {order}")
     # Row-major: latent i, value j is row i * V + j.
     one_hot = (np.eye(r)[:, None, :] * values[None, :, None]).reshape(r * count, r)
     decoded = decode_fields(model, observer_params, one_hot).reshape(
@@ -259,13 +268,13 @@ def draw_latent_sweeps(
 
     fig = _new_figure(1.2 * count * d + 1.0, 1.2 * r + 0.8)
     grid = fig.add_gridspec(r, count * d)
-    for i in range(r):
+    for row_index, i in enumerate(order):
         norm = _symmetric_norm(*[field_plane(f) for f in decoded[i]])
         row = []
         for j in range(count):
-            axes = [fig.add_subplot(grid[i, j * d + c]) for c in range(d)]
+            axes = [fig.add_subplot(grid[row_index, j * d + c]) for c in range(d)]
             _draw_components(axes, decoded[i, j], norm, "sweep")
-            if i == 0:
+            if row_index == 0:
                 for ax, label in zip(axes, COMPONENTS, strict=False):  # "xyz": the first d
                     ax.set_title(f"{values[j]:+.2g}: v{label}", fontsize=8)
             row += axes
