@@ -51,13 +51,27 @@ def baseline_run(tmp_path, finals):
 def test_a_litl_iteration_counts_forward_and_backward_and_evaluations_count_forward(tmp_path):
     run = load_run(litl_run(tmp_path, {0: -1.0, 1: -0.9}))
     c = curve(run, backward_cost=2.0)
-    # iterations 1..4 at 3 x 10 steps each; one evaluation (10 steps) after each episode of 2
-    np.testing.assert_allclose(c.steps[0], [30, 70, 100, 140])
+    # iterations 1..4 at 3 x 10 steps each; the bootstrap's rollout (10) before them; one
+    # evaluation (10 steps) after each episode of 2; the final evaluation (10) at the end
+    np.testing.assert_allclose(c.steps[0], [40, 80, 110, 160])
     assert c.label == "vae" and list(c.final) == [-1.0, -0.9]
     ppo = curve(load_run(baseline_run(tmp_path, {0: -0.5, 1: -0.4})), backward_cost=2.0)
     np.testing.assert_allclose(ppo.steps[1], [100, 200, 300])
     steps, wall, seeds = reaching(ppo, -0.45)  # seed 0 reaches it at its last round, seed 1 never
     assert (steps, wall, seeds) == (300.0, 2.0, 1)
+
+
+def test_the_observer_checks_two_rollouts_count_at_every_learning_phase(tmp_path):
+    path = litl_run(tmp_path, {0: -1.0, 1: -0.9})
+    settings = json.loads((path / "run.json").read_text())
+    settings["config"]["loop"]["safeguards"] = {"update_tolerance": 0.1}
+    (path / "run.json").write_text(json.dumps(settings))
+    c = curve(load_run(path), backward_cost=2.0)
+    # + 2 rollouts at the bootstrap's phase and after each episode's evaluation
+    np.testing.assert_allclose(c.steps[0], [30 + 30, 60 + 30 + 30, 90 + 30 + 30, 120 + 30 + 60 + 10])
+    # An unfinished run (no final.json) has no final evaluation yet.
+    (path / "final.json").unlink()
+    assert curve(load_run(path), backward_cost=2.0).steps[0][-1] == 120 + 30 + 60
 
 
 def test_the_reference_beats_a_clearly_worse_method_and_holm_adjusts_upwards(tmp_path):
@@ -69,11 +83,11 @@ def test_the_reference_beats_a_clearly_worse_method_and_holm_adjusts_upwards(tmp
         curve(load_run(baseline_run(tmp_path, bad)), 2.0),
     ]
     rows = compare(curves, "vae")
-    assert rows[0]["budget"] == 140 and rows[1]["budget_x"] == pytest.approx(300 / 140)
+    assert rows[0]["budget"] == 160 and rows[1]["budget_x"] == pytest.approx(300 / 160)
     tests, holm = rows[1]["tests"], rows[1]["holm"]
     assert tests["end"].verdict == "holds" and holm["end"] >= tests["end"].test_p
     assert rows[1]["after_holm"]["end"] == "holds"
-    # at the reference's budget (140 steps) the baseline is at its first round: loss 0
+    # at the reference's budget (160 steps) the baseline is at its first round: loss 0
     assert rows[1]["at_reference_budget"] == pytest.approx(0.0)
     assert rows[0]["reach"][1.0][2] >= 1
 

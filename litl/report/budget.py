@@ -5,8 +5,13 @@ axis, the comparison of what gradients buy.
 
 The counting rule: a forward simulation step counts 1, a backward step `--backward-cost` forward
 steps (measured by `benchmarks/backward_cost.py` for the same rollout). A litl iteration is one
-forward and one backward pass through its rollout, (1 + backward cost) x steps; each evaluation
-without a gradient (one per episode when the observer retrains, Table 1's "before") adds steps.
+forward and one backward pass through its rollout, (1 + backward cost) x steps. Every other
+rollout litl simulates counts its forward steps: the bootstrap rollout that fills the replay
+buffer (before the first iteration); per learning phase (the bootstrap's, and one after every
+episode when the observer retrains) the evaluation without a gradient (Table 1's "before", after
+every episode) and, with `loop.safeguards.update_tolerance` set, the observer check's two rollouts
+(the controller with the old and the updated observer); and the final evaluation of the last
+parameters (`final.json`), added to the run's last point.
 Baselines record their own `simulated_steps` (forward only). Network updates (the VAE's training,
 PPO's epochs) simulate nothing: their time is in the wall clock, reported beside.
 
@@ -59,20 +64,16 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
 
     rollout = int(run.settings["steps"])
     litl_run = str(run.config.get("baseline.kind", "none")) == "none"
-    retrains = bool(run.learned)
-    iterations = int(run.config.get("loop.iterations", 1))
+    final_file = run.path / "final.json"
     steps, loss, wall, seeds = [], [], [], run.seeds
     for seed in seeds:
         rows = sorted((r for r in run.records if int(r["seed"]) == seed), key=lambda r: int(r["step"]))
         if litl_run:
-            done = np.array([int(r["step"]) + 1 for r in rows], np.float64)
-            evaluations = (done // iterations) * retrains  # one per finished episode (Table 1's "before")
-            steps.append(done * rollout * (1 + backward_cost) + evaluations * rollout)
+            steps.append(litl_steps(run, rows, backward_cost, final_file.exists()))
         else:
             steps.append(np.array([float(r["simulated_steps"]) for r in rows]))
         loss.append(np.array([float(r["task_loss"]) for r in rows]))
         wall.append(np.array([float(r.get("wall_s", math.nan)) for r in rows]))
-    final_file = run.path / "final.json"
     by_seed = {}
     if final_file.exists():
         by_seed = {int(f["seed"]): f["task_loss"] for f in json.loads(final_file.read_text())}
@@ -82,6 +83,26 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
         final[s] = math.nan if value is None else float(value)
     device = device_of(run.settings.get("backend")) or "—"
     return Curve(label or run.head, seeds, steps, loss, wall, final, device)
+
+
+def litl_steps(run: Run, rows: list[dict[str, Any]], backward_cost: float, finished: bool) -> np.ndarray:
+    """(len(rows),) the forward-step equivalents a litl seed had simulated by each of its metrics
+    records (ascending steps), by the module docstring's rule."""
+    rollout = int(run.settings["steps"])
+    iterations = int(run.config.get("loop.iterations", 1))
+    learned = bool(run.learned)
+    retrains = learned and str(run.config.get("loop.schedule", "alternating")) == "alternating"
+    checked = run.config.get("loop.safeguards.update_tolerance") is not None
+    # Rollouts each learning phase adds: the observer check's two, where it is on.
+    per_phase = 2 * checked
+    done = np.array([int(r["step"]) + 1 for r in rows], np.float64)
+    episodes_done = done // iterations
+    startup = 1 + per_phase * learned  # the bootstrap's rollout, and its phase's check
+    after_episodes = episodes_done * retrains * (1 + per_phase)  # Table 1's "before" and the check
+    result: np.ndarray = done * rollout * (1 + backward_cost) + (startup + after_episodes) * rollout
+    if finished and len(result):
+        result[-1] += rollout  # the final evaluation (final.json)
+    return result
 
 
 def at_steps(c: Curve, grid: np.ndarray) -> np.ndarray:
