@@ -62,7 +62,6 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
     """The run's task loss against simulated steps per seed (see the module docstring)."""
     import json
 
-    rollout = int(run.settings["steps"])
     litl_run = str(run.config.get("baseline.kind", "none")) == "none"
     final_file = run.path / "final.json"
     steps, loss, wall, seeds = [], [], [], run.seeds
