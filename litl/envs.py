@@ -1,6 +1,6 @@
 """A litl robot as a reinforcement-learning environment, in gymnax's shape.
 
-    env, params = litl.envs.make(litl.robots.get("biped", dx=1 / 32))
+    env, params = litl.envs.make("biped", dx=1 / 32)  # or make(litl.robots.get("biped", dx=1 / 32))
     obs, state = env.reset(key, params)
     obs, state, reward, done, info = env.step(key, state, action, params)
 
@@ -40,6 +40,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+import litl.robots
 from litl.sim import Design, SimState, make_step, rasterize
 from litl.sim.fields import GridField, full_cell_mass, grid_velocity, mass_weighted_velocity
 
@@ -226,10 +227,13 @@ def make(
     dtype=jnp.float32,
     observer=None,
     observer_params=None,
+    dx: float | None = None,
 ):
     """`(env, env_params)` for `robot` (any litl robot, 2D or 3D, in any world).
 
     Args:
+      robot: a `litl.robots.Robot`, or a registered robot's name (``make("biped")``, as
+        ``gymnax.make("CartPole-v1")`` takes one): ``litl.robots.get(robot, dx)``'s robot.
       hold: simulation steps each action is held for (one environment step), >= 1.
       period: the observation's clock period in seconds (default: the MLP controller's,
         `litl.controllers.mlp.CLOCK_PERIOD`).
@@ -238,9 +242,24 @@ def make(
       observer: a `litl.observers.Observer` (``observation="observer"``), e.g.
         ``litl.loop.make_algorithm(robot, config).observer``.
       observer_params: its parameters (Θ; `params.observer`), e.g. a trained run's.
+      dx: with a robot's name, the grid spacing to sample it at (default: the robot's own, the
+        paper's resolution); a `Robot` is already sampled and takes none.
+
+    Raises:
+      litl.robots.catalog.UnknownRobotError: an unknown robot name (the message lists the known
+        ones).
+      SimConfigError: a bad setting (the message names it).
     """
     from litl.controllers.mlp import CLOCK_PERIOD
     from litl.sim import SimConfigError
+
+    if isinstance(robot, str):
+        robot = litl.robots.get(robot, dx=dx)
+    elif dx is not None:
+        raise SimConfigError(
+            f"dx={dx!r}: only a robot's name takes dx (make('biped', dx=...)); a Robot is already "
+            "sampled (litl.robots.get(name, dx=...))"
+        )
 
     if isinstance(hold, bool) or not isinstance(hold, int) or hold < 1:
         raise SimConfigError(f"hold={hold!r}: the simulation steps per action must be a positive integer")

@@ -99,6 +99,33 @@ def test_bad_actions_and_settings_are_refused(biped):
             litl.envs.make(robot, **bad)
 
 
+def test_a_registered_robots_name_makes_the_same_environment_as_the_robot(biped):
+    """``make("biped", dx=..., hold=...)`` (a name, as ``gymnax.make("CartPole-v1")`` takes one)
+    is ``make(litl.robots.get("biped", dx=...), hold=...)``: the same spaces, the same start and the
+    same first step from the same key and action."""
+    robot, env, params = biped
+    named, named_params = litl.envs.make("biped", dx=1 / 32, hold=8)
+    named_params = named_params.replace(max_steps=params.max_steps)
+    assert named.robot.name == robot.name and named.num_actions == env.num_actions
+    assert named.observation_space(named_params) == env.observation_space(params)
+    assert named.action_space(named_params) == env.action_space(params)
+    chex.assert_trees_all_close(named_params.design, params.design, atol=0)
+    key = jax.random.key(4)
+    action = env.action_space(params).sample(jax.random.key(5))
+    first = env.step(key, env.reset(key, params)[1], action, params)
+    first_named = named.step(key, named.reset(key, named_params)[1], action, named_params)
+    chex.assert_trees_all_close(first_named, first, atol=0)
+
+
+def test_an_unknown_robot_name_or_a_dx_with_a_robot_is_refused(biped):
+    from litl.robots.catalog import UnknownRobotError
+
+    with pytest.raises(UnknownRobotError, match=r"unknown robot 'bipedd'; choose one of \[.*'biped'"):
+        litl.envs.make("bipedd", hold=8)
+    with pytest.raises(SimConfigError, match="only a robot's name takes dx"):
+        litl.envs.make(biped[0], dx=1 / 32)
+
+
 def test_a_3d_robot_is_an_environment_too():
     robot = litl.robots.get("quadruped", dx=1 / 16)
     env, params = litl.envs.make(robot, hold=4)
