@@ -217,7 +217,8 @@ class WorldConfig(Settings):
       kind: flat (the empty box), slope, steps, bumps, sand, water or push_box (`WorldKind`).
       angle: the slope's angle, degrees in (0, 45].
       step_height, step_length: the stairs' risers and treads (domain units).
-      amplitude, wavelength: the bumps' largest height and spacing (domain units).
+      amplitude, wavelength: the bumps' largest height above the floor and their spacing
+        (domain units; the amplitude at least one grid cell, or no bump reaches past the floor).
       seed: the bumps' random profile.
       contact: how the terrain holds the robot (sticky as the floor, slip, or friction).
       friction: the Coulomb coefficient of a friction contact (>= 0).
@@ -238,7 +239,7 @@ class WorldConfig(Settings):
     angle: float = 10.0
     step_height: float = 0.02
     step_length: float = 0.1
-    amplitude: float = 0.02
+    amplitude: float = 0.05
     wavelength: float = 0.1
     seed: int = 0
     contact: ContactKind = ContactKind.sticky

@@ -6,8 +6,9 @@ robot starts on the flat floor as in the empty box and meets the terrain when it
 * ``flat``: the empty box (no collider; today's scenes, bit for bit);
 * ``slope``: the ground rises at `angle` degrees;
 * ``steps``: stairs of `step_height` risers every `step_length` (each riser one cell wide);
-* ``bumps``: a random piecewise-linear profile, heights in [0, `amplitude`] every
-  `wavelength` / 2, drawn from `seed`;
+* ``bumps``: a random piecewise-linear profile, heights in [0, `amplitude`] above the floor
+  every `wavelength` / 2, drawn from `seed` (at least one grid cell: a lower bump holds no node
+  the floor wall does not);
 * ``sand``, ``water``: a layer `depth` deep on the whole floor, a second body of Drucker-Prager
   sand (`friction_angle`) or water (`litl.sim.materials`), `density` times the robot's; the robot
   starts on top of it (`bed`). Its observers see the robot's part of the grid unless
@@ -71,6 +72,14 @@ def terrain(world, robot: Robot) -> tuple[Collider, ...]:
             xs += [min(x, length)]
             heights += [height]
     elif kind == "bumps":
+        if world.amplitude < dx:
+            # A bump acts on the nodes within one cell of its surface: one lower than a cell above
+            # the floor holds no node the floor wall does not already hold.
+            raise SimConfigError(
+                f"world.amplitude={world.amplitude:g} is below one grid cell (dx = {dx:g}): bumps that "
+                f"low hold no grid node above the floor wall, so the robot would walk on the flat "
+                f"box; use world.amplitude >= {dx:g}"
+            )
         rng = np.random.default_rng(world.seed)
         x = start
         while x < length:

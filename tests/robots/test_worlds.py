@@ -42,10 +42,34 @@ def test_each_world_starts_past_the_robot_and_holds_the_floor_walls_nodes(kind):
     assert with_world(robot, compose([f"world={kind}"]).world) is robot  # applied once
 
 
+@pytest.mark.parametrize("kind", ["slope", "steps", "bumps"])
+@pytest.mark.parametrize("resolution", ["demo", "smoke"])
+def test_each_worlds_terrain_holds_nodes_above_the_floor_wall_at_its_defaults(kind, resolution):
+    """The terrain acts: ahead of the robot, a falling grid velocity is stopped at nodes above the
+    floor wall's layer, where the flat box leaves it falling (the bumps once lay inside the wall)."""
+    robot = build_robot(compose([f"world={kind}", f"robot.resolution={resolution}"]))
+    config = robot.config
+    flat = dataclasses.replace(config, boundary=dataclasses.replace(config.boundary, colliders=()))
+    velocity = [jnp.zeros(config.grid_shape), -jnp.ones(config.grid_shape)]
+    held = np.asarray(apply_boundary(config, velocity)[1]) != np.asarray(apply_boundary(flat, velocity)[1])
+    wall = config.boundary.thickness
+    assert not held[:, :wall].any()  # the floor wall's own nodes were already held
+    rows = np.flatnonzero(held.any(axis=0))
+    columns = np.flatnonzero(held.any(axis=1))
+    assert len(rows) >= 1 and len(columns) >= 3, (rows, columns)
+    front = robot.layout.bounds()[1][0]
+    assert columns.min() * config.dx > front  # where the terrain stands: ahead of the robot
+
+
+def test_bumps_lower_than_a_grid_cell_are_refused():
+    with pytest.raises(SimConfigError, match="below one grid cell"):
+        build_robot(compose(["world=bumps", "world.amplitude=0.01", "robot.resolution=demo"]))
+
+
 def test_a_world_is_recorded_and_the_same_command_builds_the_same_terrain():
-    config = compose(["world=bumps", "world.seed=3", "world.amplitude=0.03", "+scale=smoke"])
+    config = compose(["world=bumps", "world.seed=3", "world.amplitude=0.04", "+scale=smoke"])
     recorded = config.run_settings()["world"]
-    assert recorded["kind"] == "bumps" and recorded["seed"] == 3 and recorded["amplitude"] == 0.03
+    assert recorded["kind"] == "bumps" and recorded["seed"] == 3 and recorded["amplitude"] == 0.04
     again = terrain(config.world, build_robot(compose(["+scale=smoke"])))
     assert build_robot(config).config.boundary.colliders == again
     other = terrain(config.world.replace(seed=4), build_robot(compose(["+scale=smoke"])))
