@@ -126,32 +126,19 @@ class PartConfig(Settings):
                     f"your own: {cls.PART}.module=<module that registers it>)",
                     f"{cls.PART}.{name}",
                 )
-            sections[name] = _built(known[name], value, f"{cls.PART}.{name}")
+            sections[name] = known[name].from_tree(value)
         return cls(**plain, sections=tuple(sections.items()))  # type: ignore[call-arg]  # a dataclass
 
 
-def _built(kind: type[Settings], values: dict[str, Any], key: str) -> Settings:
-    """A registered section from plain values; a settings class that does not derive from
-    `Settings` gets its unknown keys and its constructor's errors named by their key."""
-    if issubclass(kind, Settings):
-        return kind.from_tree(values)
-    names = {f.name for f in dataclasses.fields(kind)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise SettingsError(
-            f"unknown setting(s) {[f'{key}.{u}' for u in unknown]}; valid: {sorted(names)}", key
-        )
-    try:
-        return kind(**values)
-    except (TypeError, ValueError) as error:
-        raise SettingsError(f"{key}: {error}", key) from None
-
-
-def _replaced(current: Any, value: Any, key: str) -> Any:
+def _replaced(current: Settings, value: Any, key: str) -> Settings:
+    """`current` with `value`'s changes (a dict of its keys), or `value` itself (a section of
+    the same class)."""
     if isinstance(value, dict):
-        if isinstance(current, Settings):
-            return current.replace(**value)
-        return _built(type(current), {**dataclasses.asdict(current), **value}, key)
+        return current.replace(**value)
+    if not isinstance(value, type(current)):
+        raise SettingsError(
+            f"{key}: give a dict of its keys or a {type(current).__name__}, got {value!r}", key
+        )
     return value
 
 

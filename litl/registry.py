@@ -64,8 +64,17 @@ class Registry:
         **traits: Any,
     ) -> None:
         """Make `factory(robot, settings, context)` selectable as `name`; `settings` is its
-        frozen settings dataclass (``<part>.<name>.<key>=value`` on the command line), or None;
-        `section` shares another name's section instead (the settings class must be the same)."""
+        frozen settings dataclass deriving from `litl.settings.Settings` (``<part>.<name>.<key>=
+        value`` on the command line), or None; `section` shares another name's section instead
+        (the settings class must be the same).
+
+        Raises:
+          SettingsError: at once, for what would otherwise fail later: a taken name (without
+            `replace`), a factory of the old signature, settings that are not a frozen
+            `Settings` dataclass (a plain one included: the message says to subclass
+            `Settings`), or defaults that cannot be built, that its check refuses or that
+            run.json cannot hold.
+        """
         part = self.part
         if not isinstance(name, str) or not name.isidentifier():
             raise SettingsError(
@@ -81,17 +90,7 @@ class Registry:
         _check_factory(part, name, factory)
         section = section or name
         if settings is not None:
-            if not (isinstance(settings, type) and dataclasses.is_dataclass(settings)):
-                raise SettingsError(
-                    f"{part} {name!r}: settings must be a frozen dataclass (ideally deriving "
-                    f"from litl.settings.Settings), got {settings!r}"
-                )
-            if not settings.__dataclass_params__.frozen:  # type: ignore[attr-defined]
-                raise SettingsError(
-                    f"{part} {name!r}: settings {settings.__name__} must be frozen (@dataclass(frozen=True))"
-                )
-            if issubclass(settings, Settings) and not settings.KEY:
-                settings.KEY = f"{part}.{section}"
+            _check_settings(part, name, section, settings)
         shared = next((e for e in self._entries.values() if e.section == section and e.name != name), None)
         if shared is not None and shared.settings is not settings:
             raise SettingsError(
@@ -139,6 +138,38 @@ class Registry:
     def sections(self) -> dict[str, type[Settings]]:
         """Every registered section and its settings class (``{"vae": AutoencoderSettings, ...}``)."""
         return {e.section: e.settings for e in self._entries.values() if e.settings is not None}
+
+
+def _check_settings(part: str, name: str, section: str, settings: Any) -> None:
+    """Refuse, at registration, settings that would fail once a run has started: a class that is
+    not a frozen dataclass deriving from `Settings` (a plain dataclass's values are neither
+    checked nor written to run.json), and defaults its own check refuses or run.json cannot
+    hold (`Settings.__post_init__` checks both); name the section's key (``observer.<section>``)."""
+    if not (isinstance(settings, type) and dataclasses.is_dataclass(settings)):
+        raise SettingsError(
+            f"{part} {name!r}: settings must be a frozen dataclass deriving from "
+            f"litl.settings.Settings, got {settings!r}"
+        )
+    if not settings.__dataclass_params__.frozen:  # type: ignore[attr-defined]
+        raise SettingsError(
+            f"{part} {name!r}: settings {settings.__name__} must be frozen (@dataclass(frozen=True))"
+        )
+    if not issubclass(settings, Settings):
+        raise SettingsError(
+            f"{part} {name!r}: settings {settings.__name__} is a plain dataclass; subclass "
+            f"litl.settings.Settings (class {settings.__name__}(Settings), still frozen) so that its "
+            f"values are checked and written to run.json"
+        )
+    if not settings.KEY:
+        settings.KEY = f"{part}.{section}"
+    try:
+        settings()  # its defaults: checked by its own check, its annotations and for run.json
+    except TypeError as error:
+        raise SettingsError(
+            f"{part} {name!r}: settings {settings.__name__}() cannot be built from its defaults "
+            f"({error}); every field needs a default",
+            settings.KEY,
+        ) from None
 
 
 def _check_factory(part: str, name: str, factory: Callable[..., Any]) -> None:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import json
 import math
 import types
 import typing
@@ -80,6 +81,23 @@ class Settings:
             self._check_types(types_)
             raise
         self._check_types(types_)
+        self._check_json()
+
+    def _check_json(self) -> None:
+        """Refuse a value run.json cannot hold now, when the section is built, rather than when
+        a run writes its run.json (nested sections check their own)."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, Settings):
+                continue
+            try:
+                json.dumps(json_safe(value))
+            except (TypeError, ValueError) as error:
+                self._invalid(
+                    f.name,
+                    f"cannot be written to run.json ({error}); a setting's value is a number, a "
+                    "string, true or false, null, or a list or mapping of those",
+                )
 
     def _check_types(self, types_: dict[str, Any]) -> None:
         for f in dataclasses.fields(self):

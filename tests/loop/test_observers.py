@@ -80,6 +80,59 @@ def test_register_refuses_a_taken_or_empty_name_and_config_names_the_choices():
         tiny_config(observer={"kind": "vea"})
 
 
+def test_settings_that_would_break_a_run_late_are_refused_when_registered_or_configured(user_module):
+    """A plain frozen dataclass as an observer's settings (its values would be neither checked nor
+    written to run.json) is refused at register() with one line saying to subclass Settings; a
+    default value run.json cannot hold is refused at register(), and such a value given later
+    when the observer is configured, before any run starts."""
+    import dataclasses
+    from typing import Any
+
+    from litl.settings import Settings
+
+    def factory(robot, settings, context):
+        return None
+
+    @dataclasses.dataclass(frozen=True)
+    class Plain:
+        features: int = 4
+
+    with pytest.raises(
+        SettingsError,
+        match="^observer 'plain': settings Plain is a plain dataclass; subclass litl.settings.Settings",
+    ) as refused:
+        observers.register("plain", factory, Plain)
+    assert "\n" not in str(refused.value)
+
+    @dataclasses.dataclass(frozen=True)
+    class FloatType(Settings):
+        dtype: Any = np.float32  # a type, not a value run.json can hold
+
+    with pytest.raises(
+        SettingsError,
+        match=r"^observer.float_type.dtype=<class 'numpy.float32'>: cannot be written to run.json",
+    ) as refused:
+        observers.register("float_type", factory, FloatType)
+    assert refused.value.key == "observer.float_type.dtype"
+
+    @dataclasses.dataclass(frozen=True)
+    class Required(Settings):
+        features: int
+
+    with pytest.raises(SettingsError, match="cannot be built from its defaults.*every field needs a default"):
+        observers.register("required", factory, Required)
+    assert not {"plain", "float_type", "required"} & set(observers.names())
+
+    @dataclasses.dataclass(frozen=True)
+    class Loose(Settings):
+        extra: Any = None  # what its annotation admits is its own check's to say
+
+    observers.register("loose", factory, Loose)
+    assert tiny_config(observer={"loose": {"extra": [1, "a", None]}}).observer.loose.extra == (1, "a", None)
+    with pytest.raises(SettingsError, match=r"^observer.loose.extra=\{1, 2\}: cannot be written to run.json"):
+        tiny_config(observer={"kind": "loose", "loose": {"extra": {1, 2}}})
+
+
 def test_a_fourth_observer_runs_through_the_cli_report_and_pictures(tmp_path):
     (tmp_path / "my_observers.py").write_text(PROJECTION_MODULE)
     env = child_environment()
