@@ -5,7 +5,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from litl.sim.colliders import apply_colliders
+from litl.sim.colliders import apply_colliders, apply_contact
 from litl.sim.config import SimConfig
 
 
@@ -34,17 +34,12 @@ def pinned_node_mask(config: SimConfig) -> np.ndarray:
     return mask
 
 
-def _safe_norm(components):
-    sq = sum(c * c for c in components)
-    positive = sq > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, sq, 1.0)), 0.0)
-
-
 def apply_boundary(config: SimConfig, velocity, time=0.0):
     """Enforce walls, colliders and pinned regions on grid velocity components.
 
     Faces are applied in order (axis 0 low, axis 0 high, axis 1 low, ...). On a face's layer, a wall
-    acts only on velocities moving into it (outward normal component > 0). Then the colliders
+    acts only on velocities moving into it, by the contact law colliders use
+    (`litl.sim.colliders.apply_contact`). Then the colliders
     (`litl.sim.colliders`), then the pinned boxes.
 
     Args:
@@ -62,19 +57,9 @@ def apply_boundary(config: SimConfig, velocity, time=0.0):
         if wall.kind == "open":
             continue
         axis, high = divmod(face, 2)
-        normal_speed = velocity[axis]
-        hit = jnp.asarray(layer) & ((normal_speed > 0) if high else (normal_speed < 0))
-        if wall.kind == "sticky":
-            velocity = [jnp.where(hit, 0.0, v) for v in velocity]
-            continue
-        tangential = [v for a, v in enumerate(velocity) if a != axis]
-        if wall.kind == "friction":
-            speed = _safe_norm(tangential)
-            # Coulomb: the tangential speed drops by mu * |normal speed|, never below zero.
-            reduced = jnp.maximum(speed - wall.friction * jnp.abs(normal_speed), 0.0)
-            factor = jnp.where(speed > 0, reduced / jnp.where(speed > 0, speed, 1.0), 0.0)
-            velocity = [v if a == axis else v * jnp.where(hit, factor, 1.0) for a, v in enumerate(velocity)]
-        velocity[axis] = jnp.where(hit, 0.0, normal_speed)
+        # The wall's outward normal points into the domain: +e_axis on the low face.
+        normal = [0 if a != axis else (-1 if high else 1) for a in range(config.dim)]
+        velocity = apply_contact(velocity, normal, jnp.asarray(layer), wall)
     velocity = apply_colliders(boundary.colliders, config.grid_shape, config.dx, velocity, time)
     if boundary.pinned_boxes:
         pinned = jnp.asarray(pinned_node_mask(config))

@@ -280,24 +280,45 @@ def apply_colliders(colliders: Sequence[Collider], grid_shape, dx: float, veloci
             inside = jnp.asarray(phi <= collider.band * dx)
             own = None
         n = [jnp.asarray(normal[..., a], dtype) for a in range(len(velocity))]
-        normal_speed = sum(v * na for v, na in zip(velocity, n, strict=True))
-        hit = inside & (normal_speed < 0)
-        contact = collider.contact
-        if contact.kind == "sticky":
-            velocity = [jnp.where(hit, 0.0, v) for v in velocity]
-            velocity = _add_own(velocity, own)
-            continue
-        tangential = [v - normal_speed * na for v, na in zip(velocity, n, strict=True)]
-        if contact.kind == "friction":
-            squared = sum(t * t for t in tangential)
-            positive = squared > 0
-            speed = jnp.where(positive, jnp.sqrt(jnp.where(positive, squared, 1.0)), 0.0)
-            reduced = jnp.maximum(speed - contact.friction * jnp.abs(normal_speed), 0.0)
-            factor = jnp.where(positive, reduced / jnp.where(positive, speed, 1.0), 0.0)
-            tangential = [t * factor for t in tangential]
-        velocity = [jnp.where(hit, t, v) for t, v in zip(tangential, velocity, strict=True)]
+        velocity = apply_contact(velocity, n, inside, collider.contact)
         velocity = _add_own(velocity, own)
     return velocity
+
+
+def _along(value, component):
+    """value * component, where a Python 0 or ±1 component (an axis-aligned wall's normal) costs
+    no arithmetic and changes no bit."""
+    if isinstance(component, (int, float)) and component in (0, 1, -1):
+        return 0.0 if component == 0 else (value if component == 1 else -value)
+    return value * component
+
+
+def apply_contact(velocity: list, normal: Sequence, touching, contact: Wall) -> list:
+    """The one contact law of walls and colliders (the module docstring): at the nodes
+    `touching` the surface whose velocity points into it (v · n < 0), sticky nodes stop, slip
+    nodes lose the normal component, friction nodes lose it and have their tangential speed
+    reduced by μ |v · n|, never reversed.
+
+    Args:
+      velocity: d arrays (*grid_shape,), the grid velocity components.
+      normal: d outward normals of the solid: arrays (*grid_shape,), or Python numbers for a
+        plane (an axis-aligned wall: 0 and ±1).
+      touching: (*grid_shape,) bool, the nodes in contact (a wall's layer, a collider's band).
+      contact: its kind (sticky, slip, friction) and Coulomb coefficient.
+    """
+    normal_speed = sum(_along(v, na) for v, na in zip(velocity, normal, strict=True))
+    hit = touching & (normal_speed < 0)
+    if contact.kind == "sticky":
+        return [jnp.where(hit, 0.0, v) for v in velocity]
+    tangential = [v - _along(normal_speed, na) for v, na in zip(velocity, normal, strict=True)]
+    if contact.kind == "friction":
+        squared = sum(t * t for t in tangential)
+        positive = squared > 0
+        speed = jnp.where(positive, jnp.sqrt(jnp.where(positive, squared, 1.0)), 0.0)
+        reduced = jnp.maximum(speed - contact.friction * jnp.abs(normal_speed), 0.0)
+        factor = jnp.where(positive, reduced / jnp.where(positive, speed, 1.0), 0.0)
+        tangential = [t * factor for t in tangential]
+    return [jnp.where(hit, t, v) for t, v in zip(tangential, velocity, strict=True)]
 
 
 def _add_own(velocity: list, own: list | None) -> list:

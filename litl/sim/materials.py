@@ -183,9 +183,6 @@ class Fluid:
         return kept, [[pressure if i == j else zero for j in range(d)] for i in range(d)]
 
 
-MATERIALS = {"elastic": Elastic, "sand": Sand, "clay": Clay, "fluid": Fluid}
-
-
 def update(materials: Sequence[MaterialModel], material, F, mu, lam, token=None):
     """Each particle's kept F and stress under its own material: `material` (n,) int32 indexes
     `materials` (None: all the first). Every material is evaluated for every particle and the
