@@ -116,14 +116,42 @@ def replay(
       The summary written to `<out>.json` (seed, steps, task_loss, components, recorded_loss,
       files, and gait if asked).
     """
-    import jax
     import numpy as np
 
-    from litl.loop import load_final, make_algorithm, stack_seeds
     from litl.sim.safety import escape_margins
-    from litl.viz import animate_rollout, draw, draw_gait, record_rollout
 
     run_dir = pathlib.Path(run_dir)
+    robot, config, seed, out = _checked(run_dir, seed, steps, out, which, color, stride)
+    if steps is not None:
+        config = config.replace(sim={"steps": steps})
+    evaluated = _evaluate(run_dir, robot, config, seed, which)
+    files, positions, gait_numbers = _draw(robot, evaluated, out, color, stride, gait)
+    one, steps = evaluated["one"], evaluated["steps"]
+    space = robot.design_space
+    summary = {
+        "run_dir": str(run_dir),
+        "seed": seed,
+        "which": which,
+        "steps": steps,
+        "run_steps": json.loads((run_dir / "run.json").read_text())["steps"],
+        "task_loss": evaluated["task_loss"],
+        "components": evaluated["components"],
+        "recorded_loss": _recorded_loss(run_dir, which, seed),
+        "design": np.asarray(one["design"]).tolist(),
+        "design_bounds": list(space.bounds),
+        # How close the robot came to leaving the grid, per face (recorded frames only).
+        "escape_margin_cells": escape_margins(robot.config, positions),
+        "files": files,
+    }
+    if gait_numbers is not None:
+        summary["gait"] = gait_numbers
+    out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
+    return summary
+
+
+def _checked(run_dir: pathlib.Path, seed, steps, out, which: str, color: str, stride: int):
+    """(robot, config, seed, out) of a replay whose arguments are checked (`ReplayError` names the
+    one that is wrong)."""
     if which not in ("final", "best"):
         raise ReplayError(f"--which {which!r}: choose final or best")
     if color not in ("actuation", "stiffness"):
@@ -145,22 +173,45 @@ def replay(
     out = pathlib.Path(out) if out is not None else run_dir / "replay" / f"seed{seed}.gif"
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise ReplayError(f"--out {out}: use a .gif or .mp4 file name")
+    return robot, config, seed, out
 
-    if steps is not None:
-        config = config.replace(sim={"steps": steps})
+
+def _evaluate(run_dir: pathlib.Path, robot, config, seed: int, which: str) -> dict:
+    """The saved parameters' task loss for `seed`, from the run's own evaluation batched over its
+    seeds exactly as the run did it; with its loss components, the seed's parameters (`one`) and
+    the algorithm."""
+    import jax
+    import numpy as np
+
+    from litl.loop import load_final, make_algorithm, stack_seeds
+
+    seeds = [config.seed + s for s in range(config.seeds)]
     algorithm = make_algorithm(robot, config)
     saved = load_final(run_dir, robot, config, which)
     index = seeds.index(seed)
-    # The run's own evaluation, batched over its seeds exactly as the run did it.
     template = stack_seeds([algorithm.init(s) for s in seeds])
     state = template.replace(
         controller=saved["controller"], design=saved["design"], observer=saved["observer"]
     )
     losses = np.asarray(jax.jit(jax.vmap(algorithm.evaluate))(state))
     one = jax.tree.map(lambda leaf: np.asarray(leaf)[index], saved)
-    steps = algorithm.steps
-    components = _components(robot, algorithm, one, steps)
+    return {
+        "algorithm": algorithm,
+        "one": one,
+        "steps": algorithm.steps,
+        "task_loss": float(losses[index]),
+        "components": _components(robot, algorithm, one, algorithm.steps),
+    }
 
+
+def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, gait: bool):
+    """Record the seed's rollout and write its animation, its design picture and (`gait`) its gait;
+    returns (files, the recorded positions, the gait's numbers or None)."""
+    import numpy as np
+
+    from litl.viz import animate_rollout, draw, draw_gait, record_rollout
+
+    algorithm, one, steps = evaluated["algorithm"], evaluated["one"], evaluated["steps"]
     space = robot.design_space
     design = np.asarray(one["design"])
     positions, actuation, *scenery = record_rollout(
@@ -183,34 +234,13 @@ def replay(
     )
     picture = out.with_name(out.stem + "_design.png")
     _draw_design(robot, design, space.bounds, picture, draw)
-
     files = [str(out), str(picture)]
     gait_numbers = None
     if gait:
         gait_picture = out.with_name(out.stem + "_gait.png")
         _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt, path=gait_picture)
         files.append(str(gait_picture))
-
-    recorded = _recorded_loss(run_dir, which, seed)
-    summary = {
-        "run_dir": str(run_dir),
-        "seed": seed,
-        "which": which,
-        "steps": steps,
-        "run_steps": json.loads((run_dir / "run.json").read_text())["steps"],
-        "task_loss": float(losses[index]),
-        "components": components,
-        "recorded_loss": recorded,
-        "design": design.tolist(),
-        "design_bounds": list(space.bounds),
-        # How close the robot came to leaving the grid, per face (recorded frames only).
-        "escape_margin_cells": escape_margins(robot.config, positions),
-        "files": files,
-    }
-    if gait_numbers is not None:
-        summary["gait"] = gait_numbers
-    out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
-    return summary
+    return files, positions, gait_numbers
 
 
 def environment(
