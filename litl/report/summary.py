@@ -172,6 +172,101 @@ def _round_off(group: Group, source: pathlib.Path) -> dict[str, Any]:
     return {"seeds": still, "threshold": max(thresholds)}
 
 
+def _group_entry(group: Group, source: pathlib.Path, level: float) -> tuple[dict[str, Any], list[str]]:
+    """One group's entry of `summarize` (its final task loss, last-iterations window, round-off
+    and stuck seeds), and the notes it adds."""
+    notes = []
+    final = final_values(group, "task_loss")
+    mean, low, high = confidence_band(final, level)
+    n = int(np.isfinite(final).sum())
+    steps, values = series(group, "task_loss")
+    window_length = max(1, min(FINAL_WINDOW, len(steps)))
+    window = final_window_values(group, "task_loss", window_length)
+    window_mean, window_low, window_high = confidence_band(window, level)
+    finite_window = window[np.isfinite(window)]
+    round_off = _round_off(group, source)
+    stuck, stuck_notes = _stuck(group, source)
+    not_a_result = None
+    if round_off["seeds"] and len(round_off["seeds"]) == group.n_seeds:
+        not_a_result = (
+            f"the task loss never left round-off (every value of every seed is below "
+            f"{round_off['threshold']:.2g} in magnitude): the robot hardly moved, so there is "
+            f"nothing to compare"
+        )
+        notes.append(f"{group.robot} / {group.label}: not a result: {not_a_result}")
+    elif round_off["seeds"]:
+        notes.append(
+            f"{group.robot} / {group.label}: the task loss of {', '.join(round_off['seeds'])} "
+            f"never left round-off (below {round_off['threshold']:.2g} in magnitude)"
+        )
+    entry = {
+        "robot": group.robot,
+        "label": group.label,
+        "observer": group.runs[0].observer,
+        "seeds": group.n_seeds,
+        "runs": [_relative(run.path, source) for run in group.runs],
+        "iterations": int(steps[-1]) + 1 if len(steps) else 0,
+        "final_task_loss": {**_interval(mean, low, high, n), "n": n},
+        "round_off": round_off,
+        "not_a_result": not_a_result,
+        f"last{FINAL_WINDOW}_task_loss": {
+            "iterations": window_length,
+            **_interval(window_mean, window_low, window_high, finite_window.size),
+            "per_seed": [_number(v) for v in window],
+            "best": _number(finite_window.min()) if finite_window.size else None,
+            "worst": _number(finite_window.max()) if finite_window.size else None,
+        },
+        # (only when there are some: a run that never sticks keeps its keys)
+        **({"stuck": stuck} if stuck else {}),
+    }
+    if group.n_seeds < 2:
+        notes.append(
+            f"{group.robot} / {group.label}: one seed only, so its curves have no "
+            f"confidence band (the band needs at least 2 seeds)"
+        )
+    notes += _health_notes(group, source) + stuck_notes + _missing_notes(group, steps, values)
+    return entry, notes
+
+
+def _best(robot: str, entries: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """`summarize`'s `best` of one robot (None: no label has a final task loss or a reason)."""
+    ranked = sorted(
+        (
+            e
+            for e in entries
+            if e["robot"] == robot and e["final_task_loss"]["mean"] is not None and not e["not_a_result"]
+        ),
+        key=lambda e: e["final_task_loss"]["mean"],
+    )
+    not_results = [e["label"] for e in entries if e["robot"] == robot and e["not_a_result"]]
+    if not ranked:
+        if not_results:
+            return {
+                "label": None,
+                "compared": 0,
+                "overlaps_runner_up": False,
+                "no_interval": [],
+                "not_results": not_results,
+            }
+        return None
+    # Only the best and the runner-up are compared; a label without an interval (one seed)
+    # makes the comparison impossible to judge, not a win.
+    no_interval = [e["label"] for e in ranked[:2] if e["final_task_loss"]["low"] is None]
+    overlaps = (
+        len(ranked) > 1
+        and not no_interval
+        and ranked[1]["final_task_loss"]["low"] <= ranked[0]["final_task_loss"]["high"]
+    )
+    return {
+        "label": ranked[0]["label"],
+        "compared": len(ranked),
+        "overlaps_runner_up": bool(overlaps),
+        "no_interval": no_interval if len(ranked) > 1 else [],
+        # (only when there are some: the common case keeps its four keys)
+        **({"not_results": not_results} if not_results else {}),
+    }
+
+
 def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level: float) -> dict[str, Any]:
     """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
 
@@ -187,97 +282,17 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     the threshold) is `not_a_result` (the reason; None otherwise) and is left out of `best`.
     The last-iterations window is never longer than the run (`iterations` in it).
     """
-    notes = []
+    notes: list[str] = []
     entries: list[dict[str, Any]] = []
     for group in groups:
-        final = final_values(group, "task_loss")
-        mean, low, high = confidence_band(final, level)
-        n = int(np.isfinite(final).sum())
-        steps, values = series(group, "task_loss")
-        window_length = max(1, min(FINAL_WINDOW, len(steps)))
-        window = final_window_values(group, "task_loss", window_length)
-        window_mean, window_low, window_high = confidence_band(window, level)
-        finite_window = window[np.isfinite(window)]
-        round_off = _round_off(group, source)
-        stuck, stuck_notes = _stuck(group, source)
-        not_a_result = None
-        if round_off["seeds"] and len(round_off["seeds"]) == group.n_seeds:
-            not_a_result = (
-                f"the task loss never left round-off (every value of every seed is below "
-                f"{round_off['threshold']:.2g} in magnitude): the robot hardly moved, so there is "
-                f"nothing to compare"
-            )
-            notes.append(f"{group.robot} / {group.label}: not a result: {not_a_result}")
-        elif round_off["seeds"]:
-            notes.append(
-                f"{group.robot} / {group.label}: the task loss of {', '.join(round_off['seeds'])} "
-                f"never left round-off (below {round_off['threshold']:.2g} in magnitude)"
-            )
-        entries.append(
-            {
-                "robot": group.robot,
-                "label": group.label,
-                "observer": group.runs[0].observer,
-                "seeds": group.n_seeds,
-                "runs": [_relative(run.path, source) for run in group.runs],
-                "iterations": int(steps[-1]) + 1 if len(steps) else 0,
-                "final_task_loss": {**_interval(mean, low, high, n), "n": n},
-                "round_off": round_off,
-                "not_a_result": not_a_result,
-                f"last{FINAL_WINDOW}_task_loss": {
-                    "iterations": window_length,
-                    **_interval(window_mean, window_low, window_high, finite_window.size),
-                    "per_seed": [_number(v) for v in window],
-                    "best": _number(finite_window.min()) if finite_window.size else None,
-                    "worst": _number(finite_window.max()) if finite_window.size else None,
-                },
-                # (only when there are some: a run that never sticks keeps its keys)
-                **({"stuck": stuck} if stuck else {}),
-            }
-        )
-        if group.n_seeds < 2:
-            notes.append(
-                f"{group.robot} / {group.label}: one seed only, so its curves have no "
-                f"confidence band (the band needs at least 2 seeds)"
-            )
-        notes += _health_notes(group, source) + stuck_notes + _missing_notes(group, steps, values)
+        entry, group_notes = _group_entry(group, source, level)
+        entries.append(entry)
+        notes += group_notes
     best = {}
     for robot in dict.fromkeys(e["robot"] for e in entries):
-        ranked = sorted(
-            (
-                e
-                for e in entries
-                if e["robot"] == robot and e["final_task_loss"]["mean"] is not None and not e["not_a_result"]
-            ),
-            key=lambda e: e["final_task_loss"]["mean"],
-        )
-        not_results = [e["label"] for e in entries if e["robot"] == robot and e["not_a_result"]]
-        if not ranked:
-            if not_results:
-                best[robot] = {
-                    "label": None,
-                    "compared": 0,
-                    "overlaps_runner_up": False,
-                    "no_interval": [],
-                    "not_results": not_results,
-                }
-            continue
-        # Only the best and the runner-up are compared; a label without an interval (one seed)
-        # makes the comparison impossible to judge, not a win.
-        no_interval = [e["label"] for e in ranked[:2] if e["final_task_loss"]["low"] is None]
-        overlaps = (
-            len(ranked) > 1
-            and not no_interval
-            and ranked[1]["final_task_loss"]["low"] <= ranked[0]["final_task_loss"]["high"]
-        )
-        best[robot] = {
-            "label": ranked[0]["label"],
-            "compared": len(ranked),
-            "overlaps_runner_up": bool(overlaps),
-            "no_interval": no_interval if len(ranked) > 1 else [],
-            # (only when there are some: the common case keeps its four keys)
-            **({"not_results": not_results} if not_results else {}),
-        }
+        found = _best(robot, entries)
+        if found is not None:
+            best[robot] = found
     return {
         "source": str(source),
         "level": level,
@@ -340,6 +355,40 @@ def _write_table1(rows: list[dict[str, Any]], out: pathlib.Path) -> list[pathlib
                 {k: ("" if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
             )
     return [out / "table1.md", out / "table1.csv"]
+
+
+def _best_lines(robot: str, best: dict[str, Any]) -> list[str]:
+    """The "Best label" lines of one robot."""
+    lines: list[str] = []
+    unjudged = unjudged_reason(best)
+    not_results = best.get("not_results") or []
+    if best["label"] is None:
+        lines.append(
+            f"- {robot}: no result: the task loss of every label ({', '.join(not_results)}) "
+            f"never left round-off."
+        )
+        return lines
+    if not_results:
+        lines.append(f"- {robot}: not compared, never left round-off: {', '.join(not_results)}.")
+    if best["compared"] < 2:
+        lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
+    elif unjudged:
+        lines.append(
+            f"- {robot}: {best['label']} has the lowest mean final task loss of "
+            f"{best['compared']} labels; {unjudged}."
+        )
+    else:
+        caveat = (
+            " — but its confidence interval overlaps the runner-up's, so the "
+            "difference is not clear at this level"
+            if best["overlaps_runner_up"]
+            else "; its confidence interval does not overlap the runner-up's"
+        )
+        lines.append(
+            f"- {robot}: **{best['label']}** has the lowest final task loss of "
+            f"{best['compared']} labels{caveat}."
+        )
+    return lines
 
 
 def summary_markdown(summary: dict[str, Any]) -> str:
@@ -406,34 +455,7 @@ def summary_markdown(summary: dict[str, Any]) -> str:
         )
     lines += ["", "## Best label", ""]
     for robot, best in summary["best"].items():
-        unjudged = unjudged_reason(best)
-        not_results = best.get("not_results") or []
-        if best["label"] is None:
-            lines.append(
-                f"- {robot}: no result: the task loss of every label ({', '.join(not_results)}) "
-                f"never left round-off."
-            )
-            continue
-        if not_results:
-            lines.append(f"- {robot}: not compared, never left round-off: {', '.join(not_results)}.")
-        if best["compared"] < 2:
-            lines.append(f"- {robot}: only one label with a final task loss ({best['label']}).")
-        elif unjudged:
-            lines.append(
-                f"- {robot}: {best['label']} has the lowest mean final task loss of "
-                f"{best['compared']} labels; {unjudged}."
-            )
-        else:
-            caveat = (
-                " — but its confidence interval overlaps the runner-up's, so the "
-                "difference is not clear at this level"
-                if best["overlaps_runner_up"]
-                else "; its confidence interval does not overlap the runner-up's"
-            )
-            lines.append(
-                f"- {robot}: **{best['label']}** has the lowest final task loss of "
-                f"{best['compared']} labels{caveat}."
-            )
+        lines += _best_lines(robot, best)
     lines += ["", "## Files", ""] + [f"- `{name}`" for name in summary["files"]]
     lines += ["", "## Notes", ""] + ([f"- {note}" for note in summary["notes"]] or ["- none"])
     return "\n".join(lines) + "\n"
