@@ -25,7 +25,7 @@ from litl.app import import_named_modules, run_experiment
 from litl.errors import UserError, exit_on_user_error
 from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop.progress import say, set_label
-from litl.loop.run import RunDirectoryError
+from litl.loop.run_directory import RunDirectoryError
 from litl.old_settings import translate_overrides
 
 

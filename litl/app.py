@@ -28,7 +28,7 @@ from litl.config import (
 from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop import run
 from litl.loop.progress import say
-from litl.loop.run import RunDirectoryLock
+from litl.loop.run_directory import RunDirectoryLock
 from litl.old_settings import translate_overrides
 from litl.registry import import_module
 from litl.robots.robot import Robot

@@ -12,7 +12,7 @@ import pytest
 
 import litl
 from litl import provenance
-from litl.loop.run import RunDirectoryError, _claim
+from litl.loop.run_directory import RunDirectoryError, claim
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
@@ -76,7 +76,7 @@ def test_a_resume_with_another_strain_limit_names_the_one_it_was_made_with(tmp_p
     (tmp_path / "run.json").write_text(json.dumps(made))
     before = (tmp_path / "run.json").read_text()
     with pytest.raises(RunDirectoryError, match=r"made with robot.material.max_stretch=3.0\).*Nothing was"):
-        _claim(tmp_path, {**wanted, "observer": {}}, {})
+        claim(tmp_path, {**wanted, "observer": {}}, {})
     assert (tmp_path / "run.json").read_text() == before
 
 

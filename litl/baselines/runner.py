@@ -25,7 +25,7 @@ import numpy as np
 from litl.config import SettingsError
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.progress import say
-from litl.loop.run import RunDirectoryLock, _claim, _read_metrics
+from litl.loop.run_directory import RunDirectoryLock, claim, read_metrics
 
 CHECKPOINT_SECONDS = 120.0
 
@@ -81,7 +81,7 @@ def _run_locked(method, seeds, run_dir, wanted, config_files, progress, checkpoi
             f"run directory (hydra.run.dir=...). Nothing was changed.",
             "baseline.kind",
         )
-    _claim(run_dir, wanted, config_files)
+    claim(run_dir, wanted, config_files)
     state = method.init()
     done, records, elapsed = 0, [], 0.0
     if checkpoints.latest() is not None:
@@ -92,7 +92,7 @@ def _run_locked(method, seeds, run_dir, wanted, config_files, progress, checkpoi
         }
         state, found = checkpoints.restore(state, counters)
         done, elapsed = int(found["rounds_done"]), float(found["wall_s"])
-        records = _read_metrics(metrics, int(found["lines"]))
+        records = read_metrics(metrics, int(found["lines"]))
         if progress:
             say(f"litl: {method.name}: resuming {run_dir} after round {done} of {method.rounds}")
     steps = sum(method.cost(r).simulated_steps for r in range(done))

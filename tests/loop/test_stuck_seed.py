@@ -148,8 +148,9 @@ def test_final_parameters_that_fail_after_a_healthy_last_iteration_keep_that_ite
         for seed in (0, 1)
         for step in range(3)
     ]
-    run_module = importlib.import_module("litl.loop.run")  # the package exports `run`, the function
-    run_module._save_final_losses(tmp_path, np.array([np.nan, -1.5]), [0, 1], records)
+    from litl.loop.run_directory import save_final_losses
+
+    save_final_losses(tmp_path, np.array([np.nan, -1.5]), [0, 1], records)
     failed, other = json.loads((tmp_path / "final.json").read_text())
     assert failed == {
         "seed": 0,
