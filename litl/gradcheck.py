@@ -94,13 +94,7 @@ def check_gradients(
     from litl.controllers.mlp import FeatureGradient
     from litl.loop.algorithm import make_algorithm
 
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-        raise GradcheckError(f"--steps must be a positive number of steps, got {steps!r}")
-    eps = tuple(eps)
-    if not eps or not all(isinstance(e, float) and 0 < e < 1 for e in eps):
-        raise GradcheckError(f"--eps must be steps in (0, 1), e.g. 1e-4,1e-6; got {eps!r}")
-    if isinstance(directions, bool) or not isinstance(directions, int) or directions < 1:
-        raise GradcheckError(f"--directions must be a positive count, got {directions!r}")
+    eps = _checked_arguments(steps, eps, directions)
     # The true gradient: with feature_gradient=stop (litl's default) jax.grad leaves out, by
     # design, the path through the observer's features, which central differences include.
     config = config.replace(
@@ -139,29 +133,53 @@ def check_gradients(
                 f"moved, so its derivatives are at the level of round-off and no difference "
                 f"can check them; give more --steps (e.g. {4 * steps})"
             )
-        f = jax.jit(loss)
-        rng = np.random.default_rng(seed)
-        checks = []
-        for group in GROUPS:
-            for d in range(directions):
-                leaves = [rng.normal(size=np.shape(leaf)) for leaf in jax.tree.leaves(x[group])]
-                norm = math.sqrt(sum(float(np.sum(u**2)) for u in leaves))
-                u = jax.tree.unflatten(
-                    jax.tree.structure(x[group]), [jnp.asarray(leaf / norm) for leaf in leaves]
-                )
-                analytic = sum(
-                    float(jnp.vdot(g, v))
-                    for g, v in zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u), strict=True)
-                )
-
-                def shifted(step, group=group, u=u):
-                    """x moved by `step` along u in `group` (the iteration's own, bound here)."""
-                    return {**x, group: jax.tree.map(lambda a, w: a + step * w, x[group], u)}
-
-                numeric = {e: (float(f(shifted(e))) - float(f(shifted(-e)))) / (2 * e) for e in eps}
-                best = min(eps, key=lambda e: relative_error(analytic, numeric[e]))
-                checks.append(Check(group, d, analytic, numeric[best], best))
+        checks = _directional_checks(jax.jit(loss), x, gradient, eps, directions, seed)
     return checks, float(value)
+
+
+def _checked_arguments(steps, eps, directions) -> tuple[float, ...]:
+    """`eps` as a tuple, once `steps`, `eps` and `directions` are checked (`GradcheckError`)."""
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise GradcheckError(f"--steps must be a positive number of steps, got {steps!r}")
+    eps = tuple(eps)
+    if not eps or not all(isinstance(e, float) and 0 < e < 1 for e in eps):
+        raise GradcheckError(f"--eps must be steps in (0, 1), e.g. 1e-4,1e-6; got {eps!r}")
+    if isinstance(directions, bool) or not isinstance(directions, int) or directions < 1:
+        raise GradcheckError(f"--directions must be a positive count, got {directions!r}")
+    return eps
+
+
+def _directional_checks(
+    f, x: dict, gradient: dict, eps: tuple[float, ...], directions: int, seed: int
+) -> list[Check]:
+    """Per parameter group of `x` and random unit direction u: the analytic derivative
+    gradient · u against central differences of `f` along u at every step of `eps` (the one that
+    agrees best is kept)."""
+    import jax
+    import jax.numpy as jnp
+
+    rng = np.random.default_rng(seed)
+    checks = []
+    for group in GROUPS:
+        for d in range(directions):
+            leaves = [rng.normal(size=np.shape(leaf)) for leaf in jax.tree.leaves(x[group])]
+            norm = math.sqrt(sum(float(np.sum(u**2)) for u in leaves))
+            u = jax.tree.unflatten(
+                jax.tree.structure(x[group]), [jnp.asarray(leaf / norm) for leaf in leaves]
+            )
+            analytic = sum(
+                float(jnp.vdot(g, v))
+                for g, v in zip(jax.tree.leaves(gradient[group]), jax.tree.leaves(u), strict=True)
+            )
+
+            def shifted(step, group=group, u=u):
+                """x moved by `step` along u in `group` (the iteration's own, bound here)."""
+                return {**x, group: jax.tree.map(lambda a, w: a + step * w, x[group], u)}
+
+            numeric = {e: (float(f(shifted(e))) - float(f(shifted(-e)))) / (2 * e) for e in eps}
+            best = min(eps, key=lambda e: relative_error(analytic, numeric[e]))
+            checks.append(Check(group, d, analytic, numeric[best], best))
+    return checks
 
 
 class GradcheckError(UserError, ValueError):

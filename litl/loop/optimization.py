@@ -88,22 +88,7 @@ class Optimization:
             state, total, controller_grad, design_grad, step_back | retry, iterations_in_run
         )
         moved = state
-        snapshots = trajectory.snapshots
-        keep = add if self.config.loop.replay_buffer else replace_with
-        state = state.replace(
-            buffer=keep(state.buffer, snapshots, self.simulation.snapshot_velocities(trajectory))
-        )
-        recon = jnp.full((), jnp.nan, self.simulation.dtype)
-        if self.schedule is LearningSchedule.simultaneous:
-            learner = self.simulation.observer.learner
-            # make_algorithm allows the simultaneous schedule only for an observer with a step
-            assert learner is not None and learner.step is not None
-            state, key = split_key(state)
-            observer_params, observer_optimizer, losses = learner.step(
-                state.observer, state.observer_optimizer, snapshots, key
-            )
-            state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
-            recon = losses["recon"]
+        state, recon = self.record(state, trajectory)
         # A failed iteration keeps nothing of its own (no snapshots, no observer step), only the
         # retaken step if there is one, the key and the counters (and says why).
         retried = before.replace(
@@ -136,6 +121,28 @@ class Optimization:
             "first_escape_step": trajectory.health.first_escape_step,
         }
         return state, metrics
+
+    def record(self, state: LoopState, trajectory):
+        """The rollout's snapshots into the replay buffer (or in its place, without one) and, on
+        the simultaneous schedule, the observer's one step on them; returns (state, that step's
+        reconstruction loss, NaN on the other schedules)."""
+        snapshots = trajectory.snapshots
+        keep = add if self.config.loop.replay_buffer else replace_with
+        state = state.replace(
+            buffer=keep(state.buffer, snapshots, self.simulation.snapshot_velocities(trajectory))
+        )
+        recon = jnp.full((), jnp.nan, self.simulation.dtype)
+        if self.schedule is LearningSchedule.simultaneous:
+            learner = self.simulation.observer.learner
+            # make_algorithm allows the simultaneous schedule only for an observer with a step
+            assert learner is not None and learner.step is not None
+            state, key = split_key(state)
+            observer_params, observer_optimizer, losses = learner.step(
+                state.observer, state.observer_optimizer, snapshots, key
+            )
+            state = state.replace(observer=observer_params, observer_optimizer=observer_optimizer)
+            recon = losses["recon"]
+        return state, recon
 
     def may_step_back(self, anchor: Anchor) -> jnp.ndarray:
         """() bool: step backs are on (`loop.safeguards.step_back_tolerance` not None), there is
