@@ -144,10 +144,9 @@ def make_rollout(
     """Build `rollout(policy_params, design, initial_state) -> (final_state, Trajectory)`.
 
     Pure and jittable; differentiate it with `jax.grad` through a loss of its outputs. With `remat`
-    each step is recomputed in the backward pass, so reverse-mode memory is the particle state per
-    step (plus the recorded observations and snapshots) rather than every intermediate of every
-    step. `checkpoint_every=K` cuts that further to one state per K steps plus K states (for
-    steps / K + K instead of `steps` states) at the price of one more forward pass.
+    the backward pass keeps the particle state per step (plus the observations and snapshots), not
+    every step's intermediates; `checkpoint_every=K` keeps one state per K steps plus K states, at
+    the price of one more forward pass.
 
     Args:
       config: static simulator configuration.
@@ -171,6 +170,57 @@ def make_rollout(
     Returns:
       A `Rollout`: the function above, and `plan`, the memory plan it follows.
     """
+    _check_arguments(steps, snapshot_stride, checkpoint_every, memory_budget)
+    warn_if_slow_gpu_scatter()
+    step_fn = make_component_step(config, body, stress)
+    schedule = _Schedule(steps, snapshot_stride, checkpoint_every, memory_budget)
+
+    def initial_carry(design: Design, initial_state: SimState):
+        return (
+            Components.unpack(initial_state),
+            field(rasterize(config, body, initial_state, design)),
+            Health.ok(),
+        )
+
+    step_of = _step_maker(config, step_fn, policy, observe, field)
+
+    def plan(policy_params, design: Design, initial_state: SimState) -> CheckpointPlan:
+        carry = jax.eval_shape(initial_carry, design, initial_state)
+        outputs = jax.eval_shape(
+            lambda p, d, c: step_of(p, d)(c, jnp.zeros((), jnp.int32)), policy_params, design, carry
+        )[1]
+        return schedule.plan(carry, outputs, _reads_field(policy, policy_params, initial_state, carry[1]))
+
+    def rollout(policy_params, design: Design, initial_state: SimState):
+        one_step = step_of(policy_params, design)
+        every = plan(policy_params, design, initial_state).checkpoint_every
+        one_step = jax.checkpoint(one_step) if remat else one_step
+        return schedule.run(one_step, initial_carry(design, initial_state), every)
+
+    return Rollout(run=rollout, plan=plan)
+
+
+def _step_maker(config: SimConfig, step_fn, policy: Policy, observe, field: GridField):
+    """`step_of(policy_params, design)`: one step of the scan, (carry, step index) -> (carry,
+    (observation, actuation))."""
+
+    def step_of(policy_params, design: Design):
+        def one_step(carry, counter):
+            components, grid_velocity, health = carry
+            # Packing is free where a policy or observation does not read a field: XLA drops it.
+            actuation = policy(policy_params, components.pack(), grid_velocity)
+            index = components.step
+            components, grid = step_fn(components, actuation, design, counter)
+            health = health.record(config, components, index)
+            return (components, field(grid), health), (observe(components.pack()), actuation)
+
+        return one_step
+
+    return step_of
+
+
+def _check_arguments(steps, snapshot_stride, checkpoint_every, memory_budget) -> None:
+    """`make_rollout`'s arguments, checked (`ValueError` names the one that is wrong)."""
     if not isinstance(steps, int) or steps <= 0:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
     if snapshot_stride is not None and (
@@ -199,67 +249,44 @@ def make_rollout(
         or not memory_budget > 0
     ):
         raise ValueError(f"memory_budget must be a positive number of bytes or None, got {memory_budget!r}")
-    warn_if_slow_gpu_scatter()
-    step_fn = make_component_step(config, body, stress)
 
-    def plan_for(carry, step_outputs, reads_field: bool) -> CheckpointPlan:
+
+@dataclasses.dataclass(frozen=True)
+class _Schedule:
+    """How a rollout's steps are scanned: in units (a snapshot after each unit), units in
+    segments (each rematerialized as a whole when there are segments), and the memory plan that
+    sets the segments' length."""
+
+    steps: int
+    snapshot_stride: int | None
+    checkpoint_every: int | str | None
+    memory_budget: int | None
+
+    def plan(self, carry, step_outputs, reads_field: bool) -> CheckpointPlan:
         """The segment length for this rollout's carry and per-step outputs (shapes only); the
         grid field is kept per step only when the policy reads it (else XLA drops it)."""
         nbytes = lambda tree: sum(
             math.prod(leaf.shape) * leaf.dtype.itemsize for leaf in jax.tree.leaves(tree)
         )
+        stride = self.snapshot_stride
         carry_bytes = nbytes(carry) - (0 if reads_field else nbytes(carry[1]))
-        per_step = nbytes(step_outputs) + (nbytes(carry[1]) // snapshot_stride if snapshot_stride else 0)
-        if not isinstance(checkpoint_every, str):  # K or None: "auto" is the only string allowed
-            return CheckpointPlan(checkpoint_every, steps, carry_bytes, per_step)
-        budget = default_budget_bytes() if memory_budget is None else int(memory_budget)
-        return plan_checkpointing(steps, snapshot_stride or 1, carry_bytes, per_step, budget)
+        per_step = nbytes(step_outputs) + (nbytes(carry[1]) // stride if stride else 0)
+        if not isinstance(self.checkpoint_every, str):  # K or None: "auto" is the only string allowed
+            return CheckpointPlan(self.checkpoint_every, self.steps, carry_bytes, per_step)
+        budget = default_budget_bytes() if self.memory_budget is None else int(self.memory_budget)
+        return plan_checkpointing(self.steps, stride or 1, carry_bytes, per_step, budget)
 
-    def initial_carry(design: Design, initial_state: SimState):
-        return (
-            Components.unpack(initial_state),
-            field(rasterize(config, body, initial_state, design)),
-            Health.ok(),
-        )
-
-    def step_of(policy_params, design: Design):
-        """One step of the scan: (carry, step index) -> (carry, (observation, actuation))."""
-
-        def one_step(carry, counter):
-            components, grid_velocity, health = carry
-            # Packing is free where a policy or observation does not read a field: XLA drops it.
-            actuation = policy(policy_params, components.pack(), grid_velocity)
-            index = components.step
-            components, grid = step_fn(components, actuation, design, counter)
-            health = health.record(config, components, index)
-            return (components, field(grid), health), (observe(components.pack()), actuation)
-
-        return one_step
-
-    def plan(policy_params, design: Design, initial_state: SimState) -> CheckpointPlan:
-        carry = jax.eval_shape(initial_carry, design, initial_state)
-        outputs = jax.eval_shape(
-            lambda p, d, c: step_of(p, d)(c, jnp.zeros((), jnp.int32)), policy_params, design, carry
-        )[1]
-        return plan_for(carry, outputs, _reads_field(policy, policy_params, initial_state, carry[1]))
-
-    def rollout(policy_params, design: Design, initial_state: SimState):
-        one_step = step_of(policy_params, design)
-        carry = initial_carry(design, initial_state)
-        every = plan(policy_params, design, initial_state).checkpoint_every
-        # Steps run in units (a snapshot is taken after each unit), units in segments (each
-        # rematerialized as a whole when there are segments).
-        unit = snapshot_stride or min(every or steps, steps)
+    def run(self, one_step, carry, every: int | None):
+        """Scan `one_step` over the steps from `carry`: (final state, `Trajectory`)."""
+        steps, stride = self.steps, self.snapshot_stride
+        unit = stride or min(every or steps, steps)
         n_units, rest_steps = divmod(steps, unit)
         units_per_segment = min((every or steps) // unit, n_units)
         n_segments, rest_units = divmod(n_units, units_per_segment)
 
-        if remat:
-            one_step = jax.checkpoint(one_step)
-
         def run_unit(carry, start):
             carry, observed = jax.lax.scan(one_step, carry, start + _counter(unit))
-            return carry, (observed, carry[1] if snapshot_stride else None)
+            return carry, (observed, carry[1] if stride else None)
 
         def run_segment(carry, start):
             return jax.lax.scan(run_unit, carry, start + unit * _counter(units_per_segment))
@@ -273,12 +300,12 @@ def make_rollout(
         # (..., 0) actuation record).
         flatten = lambda a, per: a.reshape((math.prod(a.shape[:per]),) + a.shape[per:])
         observations = [jax.tree.map(lambda o: flatten(o, 3), observed)]
-        snapshots = [flatten(snapshots, 2)] if snapshot_stride else []
+        snapshots = [flatten(snapshots, 2)] if stride else []
         done = n_segments * segment_steps
         if rest_units:
             carry, (observed, tail) = jax.lax.scan(run_unit, carry, done + unit * _counter(rest_units))
             observations.append(jax.tree.map(lambda o: flatten(o, 2), observed))
-            snapshots += [tail] if snapshot_stride else []
+            snapshots += [tail] if stride else []
             done += rest_units * unit
         if rest_steps:
             carry, observed = jax.lax.scan(one_step, carry, done + _counter(rest_steps))
@@ -294,5 +321,3 @@ def make_rollout(
             actuation=actuation,
             health=health,
         )
-
-    return Rollout(run=rollout, plan=plan)
