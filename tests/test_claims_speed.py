@@ -2,6 +2,7 @@
 seed's mean task loss over every iteration, Welch) and *gets stuck less* (seeds whose progress is
 under a quarter of the pooled median, Fisher's exact test), with their refusals."""
 
+import dataclasses
 import math
 import pathlib
 
@@ -164,3 +165,24 @@ def test_a_claims_csv_cannot_judge_curves_and_says_what_it_lacks(tmp_path):
     assert results["4b-vae-beats-kmeans"].holm_p == pytest.approx(
         min(1.0, 3 * results["4b-vae-beats-kmeans"].test_p)
     )
+
+
+def test_the_stuck_seeds_are_drawn_thick_and_each_seeds_first_phase_is_tabled(tmp_path):
+    from litl.claims.seeds import first_phase_markdown, plot_stuck_seeds
+
+    def stuck_in(n_stuck: int, seeds: int = 5):
+        return [np.linspace(0.0, -0.01 if s < n_stuck else -0.4, 20) for s in range(seeds)]
+
+    vae, kmeans = curves("vae", stuck_in(1)), curves("kmeans", stuck_in(3))
+    learning = [
+        {"seed": s, "phase": 0, "recon_explained": e, "active_units": u, "sgd_steps": 40}
+        for s, (e, u) in enumerate([(0.5, 8), (0.0, 1), (0.3, 3), (0.25, 4), (0.6, 8)])
+    ]
+    vae = Group("biped", "vae", (dataclasses.replace(vae.runs[0], learning=tuple(learning)),))
+    groups = {("paper", "fig4b"): {"vae": vae, "kmeans": kmeans}}
+    (path,) = plot_stuck_seeds(groups, ["paper"], tmp_path)
+    assert path.name == "fig4b_seeds_paper.png" and path.stat().st_size > 0
+    text = first_phase_markdown(groups, ["paper"])
+    assert "fig4b, vae, method=paper: the first phase learned in 3 of 5 seeds" in text
+    assert "| 1 | 0.000 | 1 | 40 | no |" in text and "| 2 | 0.300 | 3 | 40 | no |" in text
+    assert first_phase_markdown({("paper", "fig4b"): {"kmeans": kmeans}}, ["paper"]) == ""

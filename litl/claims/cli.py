@@ -12,6 +12,7 @@ from collections.abc import Callable
 from litl.claims.failures import cell_records, cells_markdown
 from litl.claims.markdown import claims_markdown
 from litl.claims.origins import check_resumable, commits, describe, origins
+from litl.claims.seeds import first_phase_markdown, plot_stuck_seeds
 from litl.claims.suite import PANEL_NAMES, SCALES, Cell, ClaimsError, Scale, cells, run_suite
 from litl.claims.tables import load_groups, plot_panels, table1_markdown, verdicts, write_csv
 from litl.claims.verdicts import Verdict
@@ -192,6 +193,10 @@ def _main(args: argparse.Namespace, command: str) -> int:
     write_csv(results, out / "claims.csv", found)
     (out / "table1.md").write_text(table1_markdown(groups, args.methods))
     plot_panels(groups, args.methods, out, args.level)
+    plot_stuck_seeds(groups, args.methods, out)
+    first_phase = first_phase_markdown(groups, args.methods)
+    if first_phase:
+        (out / "first_phase.md").write_text(first_phase)
     _print_verdicts(results)
     print(out / "claims.md")
     return 0
