@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import pathlib
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -36,9 +37,10 @@ def plot_stuck_seeds(groups: Groups, methods: Sequence[str], out: pathlib.Path) 
     for claim in (c for c in CLAIMS if c.kind == "stuck" and c.b is not None):
         for method in methods:
             by_variant = groups.get((method, claim.panel), {})
-            if claim.a not in by_variant or claim.b not in by_variant:
+            b = claim.b or ""
+            if claim.a not in by_variant or b not in by_variant:
                 continue
-            sides = (by_variant[claim.a], by_variant[claim.b])
+            sides = (by_variant[claim.a], by_variant[b])
             flags_a, flags_b, threshold = stuck_near_start(progress(sides[0]), progress(sides[1]))
             figure = Figure(figsize=(10, 4))
             for index, (group, flags) in enumerate(zip(sides, (flags_a, flags_b), strict=True)):
@@ -72,7 +74,7 @@ def plot_stuck_seeds(groups: Groups, methods: Sequence[str], out: pathlib.Path) 
     return written
 
 
-def first_phase_rows(group: Group) -> list[dict]:
+def first_phase_rows(group: Group) -> list[dict[str, Any]]:
     """Each seed's first learning phase (phase 0 of its run's learning.jsonl), in seed order."""
     rows = []
     for run in group.runs:
