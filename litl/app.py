@@ -33,7 +33,7 @@ from litl.old_settings import translate_overrides
 from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
-from litl.robots.worlds import with_world
+from litl.robots.worlds import sets_task, with_world
 from litl.stuck import seed_ends, shown
 
 
@@ -119,6 +119,13 @@ def build_robot(config: Config) -> Robot:
     if config.robot.material.changes():
         robot = _with_material(robot, config.robot.material)
     kind = config.task.kind
+    if kind != TaskKind.default and sets_task(config.world):
+        raise SettingsError(
+            f"task={kind.value} with world={config.world.kind.value}: that world brings its own task "
+            f"(push the box world.push ahead), so task={kind.value} would be set aside; leave task at "
+            f"its default (task=default) or choose another world",
+            "task.kind",
+        )
     if kind != TaskKind.default:
         measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))

@@ -65,7 +65,7 @@ from litl.loop.run_directory import load_final as load_final
 from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
 from litl.robots.robot import Robot
-from litl.robots.worlds import with_world
+from litl.robots.worlds import sets_task, task_record, with_world
 
 # Iterations skipped in a row after which a seed is reported as failing.
 MANY_SKIPS = 5
@@ -97,6 +97,7 @@ def settings(robot: Robot, config: Config, algorithm) -> dict:
         "dt": robot.config.dt,
         "material": json.loads(json.dumps(dataclasses.asdict(robot.material))),
         "max_stretch": robot.config.max_stretch,  # the simulator's strain limit (None: none)
+        "task": task_record(robot.task),  # the robot's own, or its world's (push_box)
         "steps": algorithm.steps,
         "config": json.loads(json.dumps(config.run_settings())),
         "observer": {"learned": algorithm.observer.learned, "reads": list(algorithm.observer.reads)},
@@ -151,6 +152,11 @@ def run(
     # A logger that cannot be used fails before anything is built or any directory is made, so
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
+    if sets_task(config.world) and not robot.scenery:
+        say(
+            f"litl: world={config.world.kind.value} brings its own task, in place of the robot's: "
+            f"{task_record(with_world(robot, config.world).task)} (run.json records it as 'task')"
+        )
     robot = with_world(robot, config.world)
     run_dir = pathlib.Path(run_dir)
     bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)

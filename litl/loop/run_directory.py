@@ -123,6 +123,8 @@ def claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) -> 
         # which follows from them (what the report reads); the backend is not a setting.
         recorded = read_sections_only(upgrade(found["config"]))
         found = {**found, "config": recorded, "observer": wanted["observer"]}
+        if "task" not in found:  # a run from before run.json recorded the task: it ran this one
+            found["task"] = wanted.get("task")
         if "max_stretch" not in found:  # a run from before the strain limit: purely elastic
             found["max_stretch"] = None
             found["material"] = {**found.get("material", {}), "max_stretch": math.inf}

@@ -30,7 +30,9 @@ except in push_box.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+from typing import Any
 
 import numpy as np
 
@@ -194,6 +196,19 @@ def box(world, robot: Robot) -> tuple[Scenery, Task]:
     target = positions.mean(axis=0)
     target[0] += world.push
     return body, Task(Push("box", tuple(target)))
+
+
+def sets_task(world) -> bool:
+    """Whether `world` brings its own task in place of the robot's (push_box: push the box)."""
+    return str(getattr(world.kind, "value", world.kind)) == "push_box"
+
+
+def task_record(task: Task | None) -> list[dict[str, Any]]:
+    """`task` as run.json records it: each term's kind and fields (none: no task)."""
+    terms = task.terms if task is not None else ()
+    return [
+        {"term": type(term).__name__, **json.loads(json.dumps(dataclasses.asdict(term)))} for term in terms
+    ]
 
 
 def with_world(robot: Robot, world) -> Robot:

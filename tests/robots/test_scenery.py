@@ -3,6 +3,7 @@ particles first and the bed's after them, each with its material; the task and t
 the robot's particles only; the robot's time step holds for the bed."""
 
 import dataclasses
+import json
 
 import jax
 import jax.numpy as jnp
@@ -212,3 +213,27 @@ def test_bad_boxes_are_refused_naming_the_keys():
         build_robot(compose(["world=push_box", "world.push=0.5", "+scale=smoke"]))
     with pytest.raises(SettingsError, match="world.push"):
         compose(["world=push_box", "world.push=0"])
+
+
+def test_the_push_box_world_says_it_brings_its_own_task_and_records_it(tmp_path, capsys):
+    """Nothing is replaced silently: a task asked for beside world=push_box is refused, and a run
+    in it says on stderr that the task is the world's and records it in run.json."""
+    from litl.config import SettingsError
+    from litl.loop.run import run
+    from tests.loop.tiny import tiny_config, tiny_robot
+
+    with pytest.raises(
+        SettingsError, match="task=locomotion with world=push_box: that world brings its own task"
+    ):
+        build_robot(compose(["world=push_box", "task=locomotion", "+scale=smoke"]))
+    config = tiny_config(
+        seeds=1, world={"kind": "push_box", "gap": 1.0}, loop={"episodes": 1, "iterations": 1}
+    )
+    run(tiny_robot(), config, tmp_path, progress=False)
+    assert "world=push_box brings its own task, in place of the robot's" in capsys.readouterr().err
+    (term,) = json.loads((tmp_path / "run.json").read_text())["task"]
+    assert term["term"] == "Push" and term["body"] == "box"
+    # The flat world records the robot's own task.
+    flat = tmp_path / "flat"
+    run(tiny_robot(), tiny_config(seeds=1, loop={"episodes": 1, "iterations": 1}), flat, progress=False)
+    assert json.loads((flat / "run.json").read_text())["task"][0]["term"] == "Locomotion"
