@@ -87,6 +87,14 @@ def load_run_config(run_dir: pathlib.Path):
     return robot, config
 
 
+def chosen_seed(config, seed: int | None) -> int:
+    """`seed`, or the run's first where it is None; a `ReplayError` if the run has no such seed."""
+    seeds = [config.seed + s for s in range(config.seeds)]
+    if seed is not None and seed not in seeds:
+        raise ReplayError(f"seed {seed}: the run has seeds {seeds} (--seed on the command line)")
+    return seeds[0] if seed is None else seed
+
+
 def replay(
     run_dir,
     seed: int | None = None,
@@ -162,10 +170,7 @@ def _checked(run_dir: pathlib.Path, seed, steps, out, which: str, color: str, st
             f"(resume it with the same command) or is not a litl run directory"
         )
     robot, config = load_run_config(run_dir)
-    seeds = [config.seed + s for s in range(config.seeds)]
-    seed = seeds[0] if seed is None else seed
-    if seed not in seeds:
-        raise ReplayError(f"--seed {seed}: the run has seeds {seeds}")
+    seed = chosen_seed(config, seed)
     if steps is not None and (not isinstance(steps, int) or steps < 1):
         raise ReplayError(f"--steps {steps}: must be a positive integer")
     if not isinstance(stride, int) or stride < 1:
@@ -265,10 +270,8 @@ def environment(
     if not (run_dir / which).is_dir():
         raise ReplayError(f"{run_dir} holds no {which}/ parameters: the run has not finished (resume it)")
     robot, config = load_run_config(run_dir)
+    seed = chosen_seed(config, seed)
     seeds = [config.seed + s for s in range(config.seeds)]
-    seed = seeds[0] if seed is None else seed
-    if seed not in seeds:
-        raise ReplayError(f"seed={seed}: the run has seeds {seeds}")
     algorithm = make_algorithm(robot, config)
     if algorithm.observer.n_features == 0:
         raise ReplayError(f"{run_dir}: its observer ({config.observer.kind}) has no features to observe")

@@ -171,7 +171,7 @@ def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_tas
     recorded = json.loads((run_dir / "final.json").read_text())[1]["task_loss"]
     assert abs(recorded) > 1e-4  # it moved: the loss stands well above float32 rounding
     np.testing.assert_allclose(-float(jnp.sum(rewards)), recorded, rtol=1e-3)
-    with pytest.raises(ReplayError, match="seed=5: the run has seeds"):
+    with pytest.raises(ReplayError, match="seed 5: the run has seeds"):
         litl.replay.environment(run_dir, seed=5)
     with pytest.raises(SimConfigError, match="observation='observer' needs an observer"):
         litl.envs.make(robot, observation="observer")

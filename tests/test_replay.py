@@ -77,7 +77,7 @@ def test_replay_writes_animation_design_picture_and_summary(finished_run, tmp_pa
 @pytest.mark.parametrize(
     "arguments, message",
     [
-        (["--seed", "7"], "--seed 7: the run has seeds \\[0, 1\\]"),
+        (["--seed", "7"], "seed 7: the run has seeds \\[0, 1\\]"),
         (["--out", "walk.png"], "use a .gif or .mp4"),
         (["--steps", "0"], "--steps 0: must be a positive integer"),
     ],

@@ -140,13 +140,11 @@ def _load(run_dir: pathlib.Path, seed: int | None) -> tuple[Any, Any, np.ndarray
     from litl.loop import make_algorithm, stack_seeds
     from litl.loop.checkpoint import Checkpoints
     from litl.models.replay_buffer import valid_mask
-    from litl.replay import load_run_config
+    from litl.replay import chosen_seed, load_run_config
 
     robot, config = load_run_config(run_dir)
+    seed = chosen_seed(config, seed)
     seeds = [config.seed + s for s in range(config.seeds)]
-    seed = seeds[0] if seed is None else seed
-    if seed not in seeds:
-        raise LatentModesError(f"--seed {seed}: the run has seeds {seeds}")
     algorithm = make_algorithm(robot, config)
     if algorithm.model is None:
         raise LatentModesError(f"{run_dir}: its observer ({config.observer.kind}) learns no latent space")
