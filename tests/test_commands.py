@@ -38,13 +38,14 @@ def help_text() -> str:
     return done.stdout
 
 
-def test_the_five_commands_are_found():
+def test_the_six_commands_are_found():
     assert _commands() == {
         "litl.claims",
         "litl.gradcheck",
         "litl.replay",
         "litl.report",
         "litl.report.budget",
+        "litl.report.latent_modes",
     }
 
 
