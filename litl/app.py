@@ -17,6 +17,7 @@ from typing import Literal
 
 import litl.backend
 import litl.robots
+import litl.worlds
 from litl.config import (
     RESOLUTIONS,
     BaselineKind,
@@ -29,11 +30,10 @@ from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop import run
 from litl.loop.progress import say
 from litl.loop.run_directory import RunDirectoryLock
-from litl.old_settings import translate_overrides
+from litl.old_settings import translate_overrides, world_key, world_moved_message
 from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
-from litl.robots.worlds import sets_task, with_world
 from litl.stuck import seed_ends, shown
 
 
@@ -52,6 +52,7 @@ def compose(overrides: Sequence[str] = ()) -> Config:
     from omegaconf.errors import OmegaConfBaseException
 
     overrides, messages = translate_overrides(overrides)
+    refuse_old_world_keys(overrides)
     for message in messages:
         warnings.warn(message, FutureWarning, stacklevel=2)
     import_named_modules(overrides)
@@ -68,13 +69,27 @@ def compose(overrides: Sequence[str] = ()) -> Config:
     return from_hydra(cfg)
 
 
+def refuse_old_world_keys(overrides: Sequence[str]) -> None:
+    """An old world key (``world.angle``) left by `translate_overrides`: one the chosen world
+    does not read; say which worlds do."""
+    kind = "flat"
+    for override in overrides:
+        key, _, value = override.lstrip("+~").partition("=")
+        if key in ("world", "world.kind"):
+            kind = value
+    for override in overrides:
+        key = override.lstrip("+~").partition("=")[0]
+        if key.partition(".")[0] == "world" and world_key(key, kind) is None:
+            raise SettingsError(world_moved_message(key, kind), key)
+
+
 def import_named_modules(overrides: Sequence[str]) -> None:
-    """Import the modules that `observer.module=` and `controller.module=` overrides name (each
-    value of a sweep's list), so the observers and controllers they register are known when the
+    """Import the modules that `observer.module=`, `controller.module=` and `world.module=`
+    overrides name (each value of a sweep's list), so the parts they register are known when the
     config is composed."""
     for override in overrides:
         key, _, value = override.lstrip("+~").partition("=")
-        if key in ("observer.module", "controller.module") and value not in ("", "null"):
+        if key in ("observer.module", "controller.module", "world.module") and value not in ("", "null"):
             for module in value.split(","):
                 part = key.split(".")[0]
                 import_module(key, module.strip(), f"litl.{part}s.register")
@@ -119,17 +134,17 @@ def build_robot(config: Config) -> Robot:
     if config.robot.material.changes():
         robot = _with_material(robot, config.robot.material)
     kind = config.task.kind
-    if kind != TaskKind.default and sets_task(config.world):
+    if kind != TaskKind.default and litl.worlds.brings_task(config.world):
         raise SettingsError(
-            f"task={kind.value} with world={config.world.kind.value}: that world brings its own task "
-            f"(push the box world.push ahead), so task={kind.value} would be set aside; leave task at "
-            f"its default (task=default) or choose another world",
+            f"task={kind.value} with world={config.world.kind}: that world brings its own task, so "
+            f"task={kind.value} would be set aside; leave task at its default (task=default) or "
+            f"choose another world",
             "task.kind",
         )
     if kind != TaskKind.default:
         measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
-    return with_world(robot, config.world)
+    return litl.worlds.put(robot, config.world)
 
 
 def _with_material(robot: Robot, material: MaterialConfig) -> Robot:

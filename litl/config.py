@@ -29,7 +29,7 @@ import enum
 from dataclasses import dataclass, field
 from typing import Any
 
-from litl.parts import ControllerConfig, ObserverConfig
+from litl.parts import ControllerConfig, ObserverConfig, WorldConfig
 from litl.registry import registry
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
 from litl.trees import flatten, unflatten
@@ -49,6 +49,7 @@ __all__ = [
     "Settings",
     "SettingsError",
     "TaskConfig",
+    "WorldConfig",
     "flatten",
     "from_dict",
     "json_safe",
@@ -181,88 +182,6 @@ class RobotConfig(Settings):
     resolution: Resolution = Resolution.demo
     module: str | None = None
     material: MaterialConfig = field(default_factory=MaterialConfig)
-
-
-class WorldKind(enum.StrEnum):
-    """The ground ahead of the robot (`litl.robots.worlds`)."""
-
-    flat = "flat"  # the empty box
-    slope = "slope"
-    steps = "steps"
-    bumps = "bumps"
-    sand = "sand"  # a bed of sand on the floor (a second body, `litl.robots.scenery`)
-    water = "water"  # a pool of water on the floor
-    push_box = "push_box"  # a box ahead of the robot, to push to a target
-
-
-class ObservedPart(enum.StrEnum):
-    """What the observers of a robot among other bodies see (`WorldConfig.observe`)."""
-
-    robot = "robot"
-    scene = "scene"
-
-
-class ContactKind(enum.StrEnum):
-    sticky = "sticky"
-    slip = "slip"
-    friction = "friction"
-
-
-@dataclass(frozen=True)
-class WorldConfig(Settings):
-    """The world the robot walks in (`world=` on the command line; `litl.robots.worlds`): terrain
-    ahead of it, as colliders (`litl.sim.colliders`), starting `gap` cells past its front.
-
-    Attributes:
-      kind: flat (the empty box), slope, steps, bumps, sand, water or push_box (`WorldKind`).
-      angle: the slope's angle, degrees in (0, 45].
-      step_height, step_length: the stairs' risers and treads (domain units).
-      amplitude, wavelength: the bumps' largest height above the floor and their spacing
-        (domain units; the amplitude at least one grid cell, or no bump reaches past the floor).
-      seed: the bumps' random profile.
-      contact: how the terrain holds the robot (sticky as the floor, slip, or friction).
-      friction: the Coulomb coefficient of a friction contact (>= 0).
-      gap: cells between the robot's front and the terrain's start.
-      depth: the sand bed's or the pool's depth (domain units); the robot starts on top of it.
-      friction_angle: the sand's friction angle, degrees in (0, 90) (`litl.sim.materials.Sand`).
-      density: the sand's, the water's or the box's density, relative to the robot's.
-      box_size: the push_box world's box: its side (domain units).
-      push: how far the box is to be pushed: its target lies `push` ahead of its start (along
-        x; the task is the squared distance of the box's centroid to it at the end).
-      observe: what a robot's observers see in a world with a second body: ``robot`` (the grid
-        field at the nodes the robot's particles reach) or ``scene`` (the whole field, the sand
-        or water included).
-    """
-
-    KEY = "world"
-    kind: WorldKind = WorldKind.flat
-    angle: float = 10.0
-    step_height: float = 0.02
-    step_length: float = 0.1
-    amplitude: float = 0.05
-    wavelength: float = 0.1
-    seed: int = 0
-    contact: ContactKind = ContactKind.sticky
-    friction: float = 0.5
-    gap: float = 2.0
-    depth: float = 0.04
-    friction_angle: float = 30.0
-    density: float = 1.5
-    observe: ObservedPart = ObservedPart.robot
-    box_size: float = 0.08
-    push: float = 0.1
-
-    def check(self) -> None:
-        self._positive_numbers("box_size", "push")
-        if not (number(self.angle) and 0 < self.angle <= 45):
-            self._invalid("angle", "must lie in (0, 45] degrees")
-        self._positive_numbers("step_height", "step_length", "amplitude", "wavelength")
-        self._positive_numbers("friction", "gap", zero=True)
-        self._positive_numbers("depth", "density")
-        if not (number(self.friction_angle) and 0 < self.friction_angle < 90):
-            self._invalid("friction_angle", "must lie in (0, 90) degrees")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            self._invalid("seed", "must be an integer >= 0")
 
 
 class BaselineKind(enum.StrEnum):
@@ -626,7 +545,8 @@ class Config(Settings):
             for key in keys:
                 tree[section].pop(key)
         names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
-        world = ("world",) if self.world.kind != WorldKind.flat else ()
+        world = ("world",) if self.world.kind != "flat" else ()
+        tree["world"] = self.world.record()
         baseline = ("baseline",) if self.baseline.kind != BaselineKind.none else ()
         tree["baseline"] = self.baseline.record()
         return {name: tree[name] for name in names + world + baseline}
@@ -648,7 +568,7 @@ def read_sections_only(tree: dict[str, Any]) -> dict[str, Any]:
     run.json records them since 2026-11-27 (earlier runs recorded every built-in's); a kind not
     registered (a user's module not imported) keeps them all."""
     flat = flatten(tree)
-    for part, default in (("observer", "vae"), ("controller", "mlp")):
+    for part, default in (("observer", "vae"), ("controller", "mlp"), ("world", "flat")):
         entry = registry(part).find(str(flat.get(f"{part}.kind", default)))
         if entry is None:
             continue
@@ -696,6 +616,8 @@ _MOVED_NAMES = {
     "CLOCK_PERIOD": ("litl.controllers.mlp", "CLOCK_PERIOD"),
     "FEATURE_SCALE": ("litl.controllers.mlp", "FEATURE_SCALE"),
     "MOVED_KEYS": ("litl.old_settings", "MOVED_KEYS"),
+    "ContactKind": ("litl.worlds.terrain", "ContactKind"),
+    "ObservedPart": ("litl.worlds.bodies", "ObservedPart"),
     "FLAT_RUN_KEYS": ("litl.old_settings", "FLAT_RUN_KEYS"),
     "current_key": ("litl.old_settings", "current_key"),
     "recorded_settings": ("litl.old_settings", "recorded_settings"),

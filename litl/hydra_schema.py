@@ -1,7 +1,7 @@
 """Hydra's view of the config: a schema built from `litl.config.Config` and the registries.
 
 `register_with_hydra` stores the schema in Hydra's ConfigStore as `litl_schema` (which
-`conf/config.yaml` extends) and makes every registered observer or controller without a YAML file
+`conf/config.yaml` extends) and makes every registered observer, controller or world without a YAML file
 of its own (a user's) an option of its group; `from_hydra` turns a composed config back into a
 checked `Config`.
 """
@@ -66,7 +66,7 @@ def register_with_hydra() -> None:
     # of its group too: observer=<name>.
     from importlib import resources
 
-    for part in ("observer", "controller"):
+    for part in ("observer", "controller", "world"):
         files = resources.files("litl.conf") / part
         for name in registry(part).names():
             if not (files / f"{name}.yaml").is_file():

@@ -38,6 +38,52 @@ MOVED_KEYS = {
 }
 
 
+# The world's keys before worlds were registered parts (2026-12-02): one section held every kind's
+# keys (``world.angle``); each now lives in the section of the worlds that read it
+# (``world.slope.angle``), so where it moved depends on the world chosen (`world_key`). Only the
+# built-in worlds existed then.
+OLD_WORLD_KEYS = {
+    "angle": ("slope",),
+    "step_height": ("steps",),
+    "step_length": ("steps",),
+    "amplitude": ("bumps",),
+    "wavelength": ("bumps",),
+    "seed": ("bumps",),
+    "contact": ("slope", "steps", "bumps"),
+    "friction": ("slope", "steps", "bumps"),
+    "gap": ("slope", "steps", "bumps", "push_box"),
+    "depth": ("sand", "water"),
+    "friction_angle": ("sand",),
+    "density": ("sand", "water", "push_box"),
+    "observe": ("sand", "water", "push_box"),
+    "box_size": ("push_box",),
+    "push": ("push_box",),
+}
+
+
+def world_key(key: str, kind: str) -> str | None:
+    """Where an old world key (``world.angle``) lives now for a run in world `kind`
+    (``world.slope.angle``); None where that world does not read it. Other keys: unchanged."""
+    head, _, name = key.partition(".")
+    if head != "world" or name not in OLD_WORLD_KEYS:
+        return key
+    return f"world.{kind}.{name}" if kind in OLD_WORLD_KEYS[name] else None
+
+
+def world_moved_message(key: str, kind: str) -> str:
+    """What to type instead of an old world key, or why it does not apply to world `kind`."""
+    now = world_key(key, kind)
+    if now is None:
+        readers = "|".join(OLD_WORLD_KEYS[key.partition(".")[2]])
+        return (
+            f"{key}: the world's keys moved into each world's own section (world.<name>.<key>), and "
+            f"world={kind} has no {key.partition('.')[2]!r}; it is a key of world={readers}"
+        )
+    return (
+        f"{key} is now {now} (with world={kind}); the old spelling still works for now, but will not for ever"
+    )
+
+
 # run.json files written before the config model (before 2026-11-23) kept the run's settings in
 # one flat "loop" object; where each of its keys lives now. They are no keys of today's command
 # line (`observer=` there picks a group, not `observer.kind`), so only `recorded_settings` reads them.
@@ -95,8 +141,17 @@ def moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
 
 
 def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]:
-    """Command-line overrides with moved keys renamed (`MOVED_KEYS`), and a message for each:
-    ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``."""
+    """Command-line overrides with moved keys renamed (`MOVED_KEYS`; an old world key into the
+    chosen world's section, `world_key`), and a message for each:
+    ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``.
+    An old world key the chosen world does not read (``world.angle=15`` without ``world=slope``)
+    is left as it is (`litl.app.compose` refuses it with `world_moved_message`)."""
+    overrides = list(overrides)
+    kind = "flat"
+    for override in overrides:
+        key, _, value = override.lstrip("+~").partition("=")
+        if key in ("world", "world.kind"):
+            kind = value
     translated, messages = [], []
     for override in overrides:
         prefix = override[:1] if override[:1] in "+~" else ""
@@ -104,6 +159,10 @@ def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]
         if key in MOVED_KEYS:
             messages.append(moved_message(key))
             override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
+        elif world_key(key, kind) not in (key, None):
+            now = world_key(key, kind)
+            messages.append(world_moved_message(key, kind))
+            override = f"{prefix}{now}{equals}{value}"
         translated.append(override)
     return translated, messages
 
@@ -113,6 +172,11 @@ def _today(flat: dict[str, Any]) -> dict[str, Any]:
     recorded before methods were named (litl's), the PCA observer's field (it read the VAE's
     until it had its own, 2026-11-27)."""
     flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
+    if "world.kind" in flat:  # the world's keys moved into each world's section (2026-12-02)
+        kind = str(flat["world.kind"])
+        moved = {world_key(key, kind): value for key, value in flat.items()}
+        flat = {key: value for key, value in moved.items() if key is not None}
+        flat.setdefault("world.module", None)
     flat.setdefault("method", "litl")
     flat.setdefault("controller.module", None)  # controllers of one's own came on 2026-11-27
     if "observer.pca.components" in flat:

@@ -1,4 +1,4 @@
-"""The parts of the config that registries fill: the observer and the controller.
+"""The parts of the config that registries fill: the observer, the controller and the world.
 
 A part has a `kind` (a registered name), an optional `module` (imported first: it registers a
 user's own) and one settings section per registered settings dataclass, read as attributes
@@ -10,6 +10,7 @@ the chosen kind's section only (`PartConfig.record`).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -186,3 +187,40 @@ class ControllerConfig(PartConfig):
     def check(self) -> None:
         super().check()
         self._positive_numbers("learning_rate")
+
+
+@dataclass(frozen=True)
+class WorldConfig(PartConfig):
+    """The world the robot is put in (a registered world, `litl.worlds`) and its settings.
+
+    Attributes:
+      kind: flat (the empty box), slope, steps, bumps (terrain ahead of the robot), sand, water
+        (a bed under it), push_box (a box to push: the world's own task), or your own.
+      module: a module to import first, which registers worlds of your own
+        (`litl.worlds.register`); then kind=<its name>.
+      sections: every registered world's settings (``world.slope``, ``world.sand``, ...; each
+        world's dataclass documents its keys).
+    """
+
+    KEY = "world"
+    PART = "world"
+    kind: str = "flat"
+    module: str | None = None
+    sections: tuple[tuple[str, Any], ...] = ()
+
+    def replace(self, **changes: Any) -> Any:
+        """As `PartConfig.replace`; the keys of the world's section before worlds were parts
+        (``replace(kind="slope", angle=15)``) go to the chosen world's section, with a warning."""
+        from litl.old_settings import OLD_WORLD_KEYS, world_key, world_moved_message
+
+        old = [key for key in changes if key in OLD_WORLD_KEYS]
+        if old:
+            kind = str(changes.get("kind", self.kind))
+            section = dict(changes.get(kind, {}) or {})
+            for key in old:
+                if world_key(f"world.{key}", kind) is None:
+                    raise SettingsError(world_moved_message(f"world.{key}", kind), f"world.{key}")
+                warnings.warn(world_moved_message(f"world.{key}", kind), FutureWarning, stacklevel=3)
+                section[key] = changes.pop(key)
+            changes[kind] = section
+        return super().replace(**changes)

@@ -226,15 +226,16 @@ def test_runs_in_worlds_are_labelled_by_the_world_and_its_own_settings():
             records=(),
         )
 
-    runs = [in_world(), in_world(kind="sand"), in_world(kind="slope"), in_world(kind="slope", angle=20.0)]
+    slope20 = in_world(kind="slope", slope={"angle": 20.0})
+    runs = [in_world(), in_world(kind="sand"), in_world(kind="slope"), slope20]
     assert labels(runs) == [
         "vae world=flat",
         "vae world=sand",
-        "vae world=slope world.angle=10",
-        "vae world=slope world.angle=20",
+        "vae world=slope world.slope.angle=10",
+        "vae world=slope world.slope.angle=20",
     ]
     # Settings a world does not read do not tell its runs apart.
-    assert labels([in_world(kind="sand"), in_world(kind="sand", angle=20.0)]) == ["vae", "vae"]
+    assert labels([in_world(kind="sand"), in_world(kind="sand", slope={"angle": 20.0})]) == ["vae", "vae"]
 
 
 def test_labels_name_observer_and_ablations():

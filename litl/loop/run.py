@@ -65,7 +65,7 @@ from litl.loop.run_directory import load_final as load_final
 from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
 from litl.robots.robot import Robot
-from litl.robots.worlds import sets_task, task_record, with_world
+from litl.worlds import brings_task, put, task_record
 
 # Iterations skipped in a row after which a seed is reported as failing.
 MANY_SKIPS = 5
@@ -127,7 +127,7 @@ def run(
     Args:
       robot: the robot and its default task.
       config: the run's settings (observer, controller, sim, loop, seeds, seed, and the world
-        the robot is put in, `litl.robots.worlds.with_world`; robot and task are the `robot`
+        the robot is put in, `litl.worlds.put`; robot and task are the `robot`
         argument's).
       run_dir: directory for metrics, checkpoints and final parameters (created if needed).
       progress: show a progress bar on stderr.
@@ -152,12 +152,13 @@ def run(
     # A logger that cannot be used fails before anything is built or any directory is made, so
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
-    if sets_task(config.world) and not robot.scenery:
+    placed = put(robot, config.world)
+    if brings_task(config.world) and placed.task != robot.task:
         say(
-            f"litl: world={config.world.kind.value} brings its own task, in place of the robot's: "
-            f"{task_record(with_world(robot, config.world).task)} (run.json records it as 'task')"
+            f"litl: world={config.world.kind} brings its own task, in place of the robot's: "
+            f"{task_record(placed.task)} (run.json records it as 'task')"
         )
-    robot = with_world(robot, config.world)
+    robot = placed
     run_dir = pathlib.Path(run_dir)
     bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)
     # Learning epochs are reported only where a progress display shows them (a compiled phase

@@ -308,29 +308,14 @@ def _format(value: Any, name: str = "") -> str:
     return str(value)
 
 
-# The world settings each kind of world reads (`litl.robots.worlds`); the others do not tell
-# runs apart. A run without a world section walked in the flat box.
-WORLD_KEYS = {
-    "flat": (),
-    "slope": ("angle", "contact", "friction", "gap"),
-    "steps": ("step_height", "step_length", "contact", "friction", "gap"),
-    "bumps": ("amplitude", "wavelength", "seed", "contact", "friction", "gap"),
-    "sand": ("depth", "friction_angle", "density", "observe"),
-    "water": ("depth", "density", "observe"),
-    "push_box": ("box_size", "push", "density", "gap", "observe"),
-}
-
-
 def _world(config: dict[str, Any]) -> dict[str, Any]:
-    """`config` with its world reduced to the kind and the keys that kind reads."""
+    """`config` with its world reduced to the kind and the keys of that kind's own
+    section (``world.slope.angle``); the others do not tell runs apart. A run without a world
+    section walked in the flat box."""
     kind = config.get("world.kind", "flat")
     kept = {k: v for k, v in config.items() if not k.startswith("world.")}
     kept["world.kind"] = kind
-    for key in WORLD_KEYS.get(kind, ()):
-        if key == "friction" and config.get("world.contact") != "friction":
-            continue
-        if f"world.{key}" in config:
-            kept[f"world.{key}"] = config[f"world.{key}"]
+    kept.update({k: v for k, v in config.items() if k.startswith(f"world.{kind}.")})
     return kept
 
 

@@ -53,7 +53,7 @@ class Robot:
       description: one paragraph for users: shape, size, actuators, task.
       scenery: passive bodies sharing the scene (`litl.robots.scenery.Scenery`: a sand bed, a
         pool), their particles after the robot's; `config.materials` holds the robot's elastic
-        material first and theirs after it (`litl.robots.worlds` builds both).
+        material first and theirs after it (`litl.worlds` builds both).
       observe_scenery: whether observers see the whole scene's grid field; False (the default):
         only the nodes the robot's particles reach (`litl.sim.Body.observed`).
     """
@@ -86,7 +86,7 @@ class Robot:
                 if body.material not in materials:
                     raise SimConfigError(
                         f"robot {self.name!r}: its scenery {body.name!r} is of {body.material}, which its "
-                        f"config's materials {materials} lack; build the scene with litl.robots.worlds"
+                        f"config's materials {materials} lack; build the scene with litl.worlds.put"
                     )
             check_apart(self.layout.positions, self.scenery, self.config.dx, f"robot {self.name!r}")
         if self.task is not None:

@@ -1,4 +1,4 @@
-"""Worlds with a second body (`world=sand`, `world=water`; `litl.robots.scenery`): the robot's
+"""Worlds with a second body (`world=sand`, `world=water`, `world=push_box`; `litl.worlds`): the robot's
 particles first and the bed's after them, each with its material; the task and the observers read
 the robot's particles only; the robot's time step holds for the bed."""
 
@@ -12,10 +12,10 @@ import pytest
 
 from litl.app import build_robot, compose
 from litl.config import SettingsError
-from litl.robots.worlds import with_world
 from litl.sim import SimConfigError, check_time_step, make_rollout, make_step, rasterize
 from litl.sim.fields import grid_velocity, mass_weighted_velocity
 from litl.sim.materials import Elastic, Fluid, Sand
+from litl.worlds import put
 
 
 @pytest.fixture(scope="module")
@@ -75,12 +75,12 @@ def test_observers_see_the_robots_part_of_the_grid_unless_told_otherwise(sandy):
     np.testing.assert_allclose(
         weighted[robot], everything[robot] * np.asarray(grid.observed_mass)[robot][:, None], rtol=1e-6
     )
-    # A step scatters the observed mass too; world.observe=scene shows everything.
+    # A step scatters the observed mass too; world.sand.observe=scene shows everything.
     _, stepped = jax.jit(make_step(scene.config, scene.body))(
         scene.state, jnp.zeros(sandy.n_actuators), scene.design
     )
     assert stepped.observed_mass is not None
-    whole = build_robot(compose(["world=sand", "world.observe=scene", "+scale=smoke"]))
+    whole = build_robot(compose(["world=sand", "world.sand.observe=scene", "+scale=smoke"]))
     assert whole.scene().body.observed is None
 
 
@@ -114,16 +114,16 @@ def test_a_biped_walks_on_sand_differently_than_on_the_floor():
 
 
 def test_bad_beds_are_refused_before_anything_runs():
-    with pytest.raises(SimConfigError, match="world.depth=0.9.*no room under the ceiling"):
-        build_robot(compose(["world=sand", "world.depth=0.9", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="world.sand.depth=0.9.*no room under the ceiling"):
+        build_robot(compose(["world=sand", "world.sand.depth=0.9", "+scale=smoke"]))
     with pytest.raises(SimConfigError, match="thinner than one grid cell"):
-        build_robot(compose(["world=sand", "world.depth=0.01", "+scale=smoke"]))
-    with pytest.raises(SettingsError, match="world.density"):
-        compose(["world=sand", "world.density=-1"])
+        build_robot(compose(["world=sand", "world.sand.depth=0.01", "+scale=smoke"]))
+    with pytest.raises(SettingsError, match="world.sand.density"):
+        compose(["world=sand", "world.sand.density=-1"])
     robot = build_robot(compose(["+scale=smoke"]))
-    world = compose(["world=sand", "world.depth=0.1"]).world
-    sandy = with_world(robot, world)
-    assert with_world(sandy, world) is sandy  # applied once
+    world = compose(["world=sand", "world.sand.depth=0.1"]).world
+    sandy = put(robot, world)
+    assert put(sandy, world) is sandy  # applied once
     # A robot placed into its bed is refused.
     with pytest.raises(SimConfigError, match="start in cells the scenery"):
         dataclasses.replace(sandy, layout=sandy.layout.translated(np.array([0.0, -0.06])))
@@ -140,7 +140,7 @@ def test_the_environment_observes_the_robot_on_sand(sandy):
 
 
 def test_a_3d_robot_gets_a_bed_over_the_whole_floor():
-    robot = build_robot(compose(["robot=quadruped", "world=sand", "world.depth=0.125", "+scale=smoke"]))
+    robot = build_robot(compose(["robot=quadruped", "world=sand", "world.sand.depth=0.125", "+scale=smoke"]))
     bed = robot.scenery[0].positions
     config = robot.config
     inner = [size - 2 * config.boundary.thickness * config.dx - config.dx for size in config.domain_size]
@@ -150,7 +150,7 @@ def test_a_3d_robot_gets_a_bed_over_the_whole_floor():
 
 def test_the_bed_weighs_its_stated_density_whatever_its_depth():
     for depth in ("0.04", "0.05"):
-        robot = build_robot(compose(["world=sand", f"world.depth={depth}", "+scale=smoke"]))
+        robot = build_robot(compose(["world=sand", f"world.sand.depth={depth}", "+scale=smoke"]))
         bed, config = robot.scenery[0], robot.config
         wall = config.boundary.thickness * config.dx
         area = (config.domain_size[0] - 2 * wall) * float(depth)
@@ -185,7 +185,7 @@ def test_a_robot_thrown_at_the_box_pushes_it_towards_its_target():
     moves on along x (the task loss falls), every particle finite; short of the target, the
     loss's gradient with respect to the robot's start velocity is that of pushing harder
     (negative). (At 1.0 it pushes the box past the target, and the gradient turns positive.)"""
-    robot = build_robot(compose(["world=push_box", "world.gap=0", "+scale=smoke"]))
+    robot = build_robot(compose(["world=push_box", "world.push_box.gap=0", "+scale=smoke"]))
     scene = robot.scene()
     own = robot.n_particles
     rollout = make_rollout(scene.config, scene.body, lambda p, s, g: jnp.zeros((robot.n_actuators,)), 150)
@@ -205,14 +205,14 @@ def test_a_robot_thrown_at_the_box_pushes_it_towards_its_target():
 
 
 def test_bad_boxes_are_refused_naming_the_keys():
-    with pytest.raises(SimConfigError, match="world.box_size=0.6.*fit between the robot's front"):
-        build_robot(compose(["world=push_box", "world.box_size=0.6", "+scale=smoke"]))
-    with pytest.raises(SimConfigError, match="world.box_size=0.04.*at least two cells"):
-        build_robot(compose(["world=push_box", "world.box_size=0.04", "+scale=smoke"]))
-    with pytest.raises(SimConfigError, match="world.push=0.5: the target lies beyond the wall"):
-        build_robot(compose(["world=push_box", "world.push=0.5", "+scale=smoke"]))
-    with pytest.raises(SettingsError, match="world.push"):
-        compose(["world=push_box", "world.push=0"])
+    with pytest.raises(SimConfigError, match="world.push_box.box_size=0.6.*fit between the robot's front"):
+        build_robot(compose(["world=push_box", "world.push_box.box_size=0.6", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="world.push_box.box_size=0.04.*at least two cells"):
+        build_robot(compose(["world=push_box", "world.push_box.box_size=0.04", "+scale=smoke"]))
+    with pytest.raises(SimConfigError, match="world.push_box.push=0.5: the target lies beyond the wall"):
+        build_robot(compose(["world=push_box", "world.push_box.push=0.5", "+scale=smoke"]))
+    with pytest.raises(SettingsError, match="world.push_box.push"):
+        compose(["world=push_box", "world.push_box.push=0"])
 
 
 def test_the_push_box_world_says_it_brings_its_own_task_and_records_it(tmp_path, capsys):
@@ -227,7 +227,7 @@ def test_the_push_box_world_says_it_brings_its_own_task_and_records_it(tmp_path,
     ):
         build_robot(compose(["world=push_box", "task=locomotion", "+scale=smoke"]))
     config = tiny_config(
-        seeds=1, world={"kind": "push_box", "gap": 1.0}, loop={"episodes": 1, "iterations": 1}
+        seeds=1, world={"kind": "push_box", "push_box": {"gap": 1.0}}, loop={"episodes": 1, "iterations": 1}
     )
     run(tiny_robot(), config, tmp_path, progress=False)
     assert "world=push_box brings its own task, in place of the robot's" in capsys.readouterr().err

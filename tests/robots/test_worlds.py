@@ -1,5 +1,5 @@
-"""Worlds (`world=`, `litl.robots.worlds`): terrain ahead of the robot as colliders, recorded in
-run.json, acting on the robot, and refused when it cannot be built."""
+"""Worlds (`world=`, `litl.worlds`): registered parts with their own settings; terrain ahead of the
+robot as colliders, recorded in run.json, acting on the robot, and refused when it cannot be built."""
 
 import dataclasses
 import json
@@ -10,15 +10,15 @@ import pytest
 
 from litl.app import build_robot, compose
 from litl.config import Config, SettingsError, WorldConfig
-from litl.robots.worlds import terrain, with_world
 from litl.sim import SimConfigError, make_rollout
 from litl.sim.boundary import apply_boundary
+from litl.worlds import put
 from tests.loop.tiny import tiny_config, tiny_robot
 
 
 def test_the_flat_world_is_the_empty_box():
     robot = tiny_robot()
-    assert with_world(robot, WorldConfig()) is robot
+    assert put(robot, WorldConfig()) is robot
     assert "world" not in Config().run_settings()  # flat runs record what runs before worlds did
 
 
@@ -39,7 +39,7 @@ def test_each_world_starts_past_the_robot_and_holds_the_floor_walls_nodes(kind):
     np.testing.assert_array_equal(
         apply_boundary(config, velocity)[1][behind], apply_boundary(flat, velocity)[1][behind]
     )
-    assert with_world(robot, compose([f"world={kind}"]).world) is robot  # applied once
+    assert put(robot, compose([f"world={kind}"]).world) is robot  # applied once
 
 
 @pytest.mark.parametrize("kind", ["slope", "steps", "bumps"])
@@ -63,16 +63,18 @@ def test_each_worlds_terrain_holds_nodes_above_the_floor_wall_at_its_defaults(ki
 
 def test_bumps_lower_than_a_grid_cell_are_refused():
     with pytest.raises(SimConfigError, match="below one grid cell"):
-        build_robot(compose(["world=bumps", "world.amplitude=0.01", "robot.resolution=demo"]))
+        build_robot(compose(["world=bumps", "world.bumps.amplitude=0.01", "robot.resolution=demo"]))
 
 
 def test_a_world_is_recorded_and_the_same_command_builds_the_same_terrain():
-    config = compose(["world=bumps", "world.seed=3", "world.amplitude=0.04", "+scale=smoke"])
+    config = compose(["world=bumps", "world.bumps.seed=3", "world.bumps.amplitude=0.04", "+scale=smoke"])
     recorded = config.run_settings()["world"]
-    assert recorded["kind"] == "bumps" and recorded["seed"] == 3 and recorded["amplitude"] == 0.04
-    again = terrain(config.world, build_robot(compose(["+scale=smoke"])))
+    assert recorded["kind"] == "bumps" and set(recorded) == {"kind", "module", "bumps"}  # its section only
+    assert recorded["bumps"]["seed"] == 3 and recorded["bumps"]["amplitude"] == 0.04
+    plain = build_robot(compose(["+scale=smoke"]))
+    again = put(plain, config.world).config.boundary.colliders
     assert build_robot(config).config.boundary.colliders == again
-    other = terrain(config.world.replace(seed=4), build_robot(compose(["+scale=smoke"])))
+    other = put(plain, config.world.replace(bumps={"seed": 4})).config.boundary.colliders
     assert other != again
 
 
@@ -80,8 +82,8 @@ def test_steps_stop_a_block_sliding_into_them():
     """A robot pushed along the floor toward the stairs ends up behind the first riser; on the
     flat floor it slides on past it."""
     robot = tiny_robot()
-    world = WorldConfig(kind="steps", step_height=0.1, contact="slip", gap=3.0)
-    stairs = with_world(robot, world)
+    world = WorldConfig().replace(kind="steps", steps={"step_height": 0.1, "contact": "slip", "gap": 3.0})
+    stairs = put(robot, world)
     riser = stairs.config.boundary.colliders[0].shape.xs[1]
 
     def front_after(r):
@@ -98,13 +100,14 @@ def test_steps_stop_a_block_sliding_into_them():
 @pytest.mark.parametrize(
     ("override", "message"),
     [
-        ("world.angle=0", "world.angle=0.0: must lie in \\(0, 45\\] degrees"),
-        ("world.angle=60", "world.angle=60.0: must lie in \\(0, 45\\] degrees"),
-        ("world.friction=-1", "world.friction=-1.0: must be a number >= 0"),
-        ("world.friction_angle=95", "world.friction_angle=95.0: must lie in \\(0, 90\\) degrees"),
-        ("world.depth=0", "world.depth=0.0: must be"),
-        ("world.observe=all", "world.observe"),
-        ("world.kind=ice", "ice"),
+        ("world.slope.angle=0", "world.slope.angle=0.0: must lie in \\(0, 45\\] degrees"),
+        ("world.slope.angle=60", "world.slope.angle=60.0: must lie in \\(0, 45\\] degrees"),
+        ("world.steps.friction=-1", "world.steps.friction=-1.0: must be a number >= 0"),
+        ("world.sand.friction_angle=95", "world.sand.friction_angle=95.0: must lie in \\(0, 90\\) degrees"),
+        ("world.water.depth=0", "world.water.depth=0.0: must be"),
+        ("world.sand.observe=all", "world.sand.observe"),
+        ("world.kind=ice", "world.kind='ice': unknown world; choose one of \\['flat', 'slope'"),
+        ("world.ice.depth=1", "ice"),
     ],
 )
 def test_bad_worlds_are_refused_naming_the_key(override, message):
@@ -114,16 +117,16 @@ def test_bad_worlds_are_refused_naming_the_key(override, message):
 
 def test_terrain_that_leaves_no_room_is_refused():
     with pytest.raises(SimConfigError, match="above the room under the ceiling"):
-        build_robot(compose(["world=steps", "world.step_height=0.3", "+scale=smoke"]))
+        build_robot(compose(["world=steps", "world.steps.step_height=0.3", "+scale=smoke"]))
     with pytest.raises(SimConfigError, match="leaves no room for terrain"):
-        build_robot(compose(["world=slope", "world.gap=100", "+scale=smoke"]))
+        build_robot(compose(["world=slope", "world.slope.gap=100", "+scale=smoke"]))
 
 
 def test_a_run_in_a_world_records_it_and_resumes_only_in_it(tmp_path):
     from litl.loop.run import RunDirectoryError, run
 
-    config = tiny_config(seeds=1, world={"kind": "slope", "angle": 15.0}, loop={"episodes": 1})
+    config = tiny_config(seeds=1, world={"kind": "slope", "slope": {"angle": 15.0}}, loop={"episodes": 1})
     run(tiny_robot(), config, tmp_path, progress=False)
-    assert json.loads((tmp_path / "run.json").read_text())["config"]["world"]["angle"] == 15.0
-    with pytest.raises(RunDirectoryError, match="world.angle"):
-        run(tiny_robot(), config.replace(world={"angle": 20.0}), tmp_path, progress=False)
+    assert json.loads((tmp_path / "run.json").read_text())["config"]["world"]["slope"]["angle"] == 15.0
+    with pytest.raises(RunDirectoryError, match="world.slope.angle"):
+        run(tiny_robot(), config.replace(world={"slope": {"angle": 20.0}}), tmp_path, progress=False)
