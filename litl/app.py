@@ -20,21 +20,17 @@ import litl.robots
 import litl.worlds
 from litl.config import (
     RESOLUTIONS,
-    BaselineKind,
     Config,
     MaterialConfig,
     SettingsError,
     TaskKind,
 )
 from litl.hydra_schema import from_hydra, register_with_hydra
-from litl.loop import run
 from litl.loop.progress import say
-from litl.loop.run_directory import RunDirectoryLock
-from litl.old_settings import translate_overrides, world_key, world_moved_message
+from litl.old_settings import chosen_kinds, sectioned_key, sectioned_message, translate_overrides
 from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
-from litl.stuck import seed_ends, shown
 
 
 def compose(overrides: Sequence[str] = ()) -> Config:
@@ -52,7 +48,7 @@ def compose(overrides: Sequence[str] = ()) -> Config:
     from omegaconf.errors import OmegaConfBaseException
 
     overrides, messages = translate_overrides(overrides)
-    refuse_old_world_keys(overrides)
+    refuse_old_section_keys(overrides)
     for message in messages:
         warnings.warn(message, FutureWarning, stacklevel=2)
     import_named_modules(overrides)
@@ -69,18 +65,19 @@ def compose(overrides: Sequence[str] = ()) -> Config:
     return from_hydra(cfg)
 
 
-def refuse_old_world_keys(overrides: Sequence[str]) -> None:
-    """An old world key (``world.angle``) left by `translate_overrides`: one the chosen world
-    does not read; say which worlds do."""
-    kind = "flat"
-    for override in overrides:
-        key, _, value = override.lstrip("+~").partition("=")
-        if key in ("world", "world.kind"):
-            kind = value
+def refuse_old_section_keys(overrides: Sequence[str]) -> None:
+    """An old key of a section that held every kind's keys (``world.angle``,
+    ``baseline.population``) left by `translate_overrides`: one the chosen kind does not read;
+    say which kinds do."""
+    kinds = chosen_kinds(overrides)
     for override in overrides:
         key = override.lstrip("+~").partition("=")[0]
-        if key.partition(".")[0] == "world" and world_key(key, kind) is None:
-            raise SettingsError(world_moved_message(key, kind), key)
+        head = key.partition(".")[0]
+        if head in kinds and sectioned_key(key, kinds[head]) is None:
+            raise SettingsError(sectioned_message(key, kinds[head]), key)
+
+
+PART_MODULES = ("observer.module", "controller.module", "world.module", "optimizer.module")
 
 
 def import_named_modules(overrides: Sequence[str]) -> None:
@@ -89,7 +86,7 @@ def import_named_modules(overrides: Sequence[str]) -> None:
     config is composed."""
     for override in overrides:
         key, _, value = override.lstrip("+~").partition("=")
-        if key in ("observer.module", "controller.module", "world.module") and value not in ("", "null"):
+        if key in PART_MODULES and value not in ("", "null"):
             for module in value.split(","):
                 part = key.split(".")[0]
                 import_module(key, module.strip(), f"litl.{part}s.register")
@@ -200,70 +197,27 @@ def _as_made(robot: Robot, config: Config, run_dir: pathlib.Path) -> Robot:
 
 
 def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None = None):
-    """Run Algorithm 1 for `config` in `run_dir` (resuming it if it holds a run), then draw.
+    """Run the configured optimization method (`config.optimizer`: litl's loop, Algorithm 1, by
+    default) in `run_dir`, resuming it if it holds a run; litl's loop then draws.
 
     `config_files` ({relative path: text}) are written into `run_dir` once it is locked for this
     process and its settings checked (`python -m litl` records Hydra's `.hydra/*.yaml` so that
-    a second process on the same directory changes nothing). Returns the `litl.loop.RunResult`.
+    a second process on the same directory changes nothing). Returns what the method returns
+    (litl's loop: the `litl.loop.RunResult`).
     """
+    from litl.optimizers import OptimizerContext, make
+
     run_dir = pathlib.Path(run_dir)
     robot = _as_made(build_robot(config), config, run_dir)
     check_observer(config)
-    baseline = config.baseline
-    if baseline.kind == BaselineKind.none:
-        budget = f"{config.loop.episodes} x {config.loop.iterations} iterations"
-    elif baseline.kind == BaselineKind.ppo:
-        budget = f"ppo, {baseline.ppo.timesteps} environment steps of {baseline.ppo.hold} simulation steps"
-    else:
-        budget = f"{baseline.kind.value}, {baseline.generations} generations of {baseline.population}"
+    optimizer = make(config.optimizer, robot, OptimizerContext(config))
     say(
         f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
-        f"{budget} -> {run_dir}"
+        f"{optimizer.budget()} -> {run_dir}"
     )
     note = litl.backend.speed_note()
     if note:
         say(note)
     run_dir.mkdir(parents=True, exist_ok=True)
-    if config.baseline.kind != BaselineKind.none:  # a gradient-free baseline instead of the loop
-        from litl.baselines import run_baseline
-
-        done = run_baseline(robot, config, run_dir, config.output.progress, config_files)
-        losses = ", ".join(
-            "n/a" if f["task_loss"] is None else f"{f['task_loss']:.6g}" for f in done["final"]
-        )
-        say(f"litl: {config.baseline.kind.value}: final task loss per seed [{losses}]; results in {run_dir}")
-        return done
-    with RunDirectoryLock(run_dir):  # held through the pictures too
-        result = run(robot, config, run_dir, progress=config.output.progress, config_files=config_files)
-        if config.output.pictures or config.output.animation:
-            from litl.pictures import draw_run
-
-            draw_run(
-                robot,
-                config,
-                result,
-                run_dir,
-                animation=config.output.animation,
-                pictures=config.output.pictures,
-                stride=config.output.animation_stride,
-                progress=config.output.progress,
-            )
-    # A seed whose last iterations were skipped reports its last good loss, marked (litl.stuck).
-    ends = seed_ends(result.metrics)
-    seeds = [config.seed + s for s in range(config.seeds)]
-    shown_losses = ", ".join(shown(ends[seed]) if seed in ends else "n/a" for seed in seeds)
-    say(f"litl: final task loss per seed [{shown_losses}]; results in {run_dir}")
-    for seed in seeds:
-        end = ends.get(seed)
-        if end is not None and end.stuck:
-            last = (
-                "it never had a finite task loss"
-                if end.last_good_step is None
-                else f"its loss is that of iteration {end.last_good_step}, its last good one"
-            )
-            say(
-                f"litl: seed {seed} ended stuck at its last good parameters (its last "
-                f"{end.skipped_at_end} iteration(s) were skipped); {last}"
-            )
-    return result
+    return optimizer.run(run_dir, config.output.progress, config_files or {})

@@ -29,7 +29,7 @@ import enum
 from dataclasses import dataclass, field
 from typing import Any
 
-from litl.parts import ControllerConfig, ObserverConfig, WorldConfig
+from litl.parts import ControllerConfig, ObserverConfig, OptimizerConfig, WorldConfig
 from litl.registry import registry
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
 from litl.trees import flatten, unflatten
@@ -49,6 +49,7 @@ __all__ = [
     "Settings",
     "SettingsError",
     "TaskConfig",
+    "OptimizerConfig",
     "WorldConfig",
     "flatten",
     "from_dict",
@@ -182,104 +183,6 @@ class RobotConfig(Settings):
     resolution: Resolution = Resolution.demo
     module: str | None = None
     material: MaterialConfig = field(default_factory=MaterialConfig)
-
-
-class BaselineKind(enum.StrEnum):
-    """What optimizes instead of litl's loop (`litl.baselines`): nothing (litl's loop), CMA-ES,
-    separable CMA-ES, OpenAI-ES or PPO."""
-
-    none = "none"
-    cmaes = "cmaes"
-    sep_cmaes = "sep_cmaes"
-    openai_es = "openai_es"
-    ppo = "ppo"
-
-
-@dataclass(frozen=True)
-class PPOConfig(Settings):
-    """PPO (rejax) on the robot as an environment (`baseline=ppo`; `litl.baselines.ppo`).
-
-    Attributes:
-      timesteps: environment steps per seed, the budget (each is `hold` simulation steps).
-      envs: environments each seed's agent steps at once.
-      rollout: environment steps each of them takes between two updates.
-      epochs: passes over each update's batch (envs x rollout steps).
-      minibatches: minibatches each pass splits the batch into (must divide envs x rollout).
-      hold: simulation steps an action is held for (one environment step).
-      evaluations: times the policy's mean action is evaluated (one episode each; the curve's
-        points, and the run's checkpoints).
-      gamma: the discount.
-      normalize: running normalization of observations and rewards (rejax's).
-    """
-
-    KEY = "baseline.ppo"
-    timesteps: int = 65536
-    envs: int = 16
-    rollout: int = 64
-    epochs: int = 8
-    minibatches: int = 8
-    hold: int = 8
-    evaluations: int = 20
-    gamma: float = 0.99
-    normalize: bool = True
-
-    def check(self) -> None:
-        self._positive_ints("timesteps", "envs", "rollout", "epochs", "minibatches", "hold", "evaluations")
-        if (self.envs * self.rollout) % self.minibatches:
-            self._invalid(
-                "minibatches",
-                f"must divide an update's batch, envs x rollout = {self.envs * self.rollout}",
-            )
-        if self.timesteps < self.envs * self.rollout:
-            self._invalid(
-                "timesteps",
-                f"is less than one update's batch (envs x rollout = {self.envs * self.rollout}); raise it "
-                f"or lower baseline.ppo.envs / baseline.ppo.rollout",
-            )
-        if not (number(self.gamma) and 0 < self.gamma <= 1):
-            self._invalid("gamma", "must lie in (0, 1]")
-
-
-@dataclass(frozen=True)
-class BaselineConfig(Settings):
-    """A gradient-free baseline instead of litl's loop (`baseline=cmaes|sep_cmaes|openai_es|ppo`;
-    `litl.baselines`).
-
-    Attributes:
-      kind: none (litl's loop), cmaes, sep_cmaes, openai_es or ppo (`BaselineKind`).
-      population: candidates per generation (>= 2; even for openai_es, whose samples come in
-        mirrored pairs); each costs one forward simulation.
-      generations: generations to run (the budget: generations x (population + 1) simulations).
-      sigma: the search distribution's (initial) standard deviation on the controller's weights
-        and the design variables (Young's modulus in units of its range).
-      learning_rate: OpenAI-ES's Adam step size on the mean, PPO's Adam step size (cmaes
-        ignores it).
-      ppo: PPO's own settings (`PPOConfig`; only baseline=ppo reads them).
-    """
-
-    KEY = "baseline"
-    kind: BaselineKind = BaselineKind.none
-    population: int = 16
-    generations: int = 50
-    sigma: float = 0.1
-    learning_rate: float = 0.03
-    ppo: PPOConfig = field(default_factory=PPOConfig)
-
-    def record(self) -> dict[str, Any]:
-        """The keys this kind of baseline reads (what run.json records of it)."""
-        tree = self.to_tree()
-        if self.kind == BaselineKind.ppo:
-            return {key: tree[key] for key in ("kind", "learning_rate", "ppo")}
-        tree.pop("ppo")
-        return tree
-
-    def check(self) -> None:
-        if isinstance(self.population, bool) or not isinstance(self.population, int) or self.population < 2:
-            self._invalid("population", "must be an integer >= 2")
-        if self.kind == BaselineKind.openai_es and self.population % 2:
-            self._invalid("population", "must be even for openai_es (its samples come in mirrored pairs)")
-        self._positive_ints("generations")
-        self._positive_numbers("sigma", "learning_rate")
 
 
 @dataclass(frozen=True)
@@ -510,7 +413,7 @@ class Config(Settings):
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     sim: RolloutConfig = field(default_factory=RolloutConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
-    baseline: BaselineConfig = field(default_factory=BaselineConfig)
+    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
     experiment: ExperimentConfig = field(default_factory=ExperimentConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
     seeds: int = 1
@@ -537,8 +440,9 @@ class Config(Settings):
 
     def run_settings(self) -> dict[str, Any]:
         """The settings that shape a run's results (recorded in `run.json`; a resumed run must
-        match them): method, observer, controller, sim, loop, seeds, seed, and the world where it
-        is not flat (runs before worlds existed were flat and recorded none)."""
+        match them): method, observer, controller, sim, loop, seeds, seed, the world where it
+        is not flat (runs before worlds existed were flat and recorded none) and the optimization
+        method where it is not litl's loop (its own section only)."""
         tree = self.to_tree()
         tree["observer"], tree["controller"] = self.observer.record(), self.controller.record()
         for section, keys in EXECUTION_KEYS.items():  # they change memory and time only
@@ -547,9 +451,9 @@ class Config(Settings):
         names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
         world = ("world",) if self.world.kind != "flat" else ()
         tree["world"] = self.world.record()
-        baseline = ("baseline",) if self.baseline.kind != BaselineKind.none else ()
-        tree["baseline"] = self.baseline.record()
-        return {name: tree[name] for name in names + world + baseline}
+        optimizer = ("optimizer",) if self.optimizer.kind != "litl" else ()
+        tree["optimizer"] = self.optimizer.record()
+        return {name: tree[name] for name in names + world + optimizer}
 
 
 # Settings that change how much memory and time a run takes, not what it computes (at most its
@@ -568,7 +472,12 @@ def read_sections_only(tree: dict[str, Any]) -> dict[str, Any]:
     run.json records them since 2026-11-27 (earlier runs recorded every built-in's); a kind not
     registered (a user's module not imported) keeps them all."""
     flat = flatten(tree)
-    for part, default in (("observer", "vae"), ("controller", "mlp"), ("world", "flat")):
+    for part, default in (
+        ("observer", "vae"),
+        ("controller", "mlp"),
+        ("world", "flat"),
+        ("optimizer", "litl"),
+    ):
         entry = registry(part).find(str(flat.get(f"{part}.kind", default)))
         if entry is None:
             continue

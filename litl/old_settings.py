@@ -38,50 +38,109 @@ MOVED_KEYS = {
 }
 
 
-# The world's keys before worlds were registered parts (2026-12-02): one section held every kind's
-# keys (``world.angle``); each now lives in the section of the worlds that read it
-# (``world.slope.angle``), so where it moved depends on the world chosen (`world_key`). Only the
-# built-in worlds existed then.
-OLD_WORLD_KEYS = {
-    "angle": ("slope",),
-    "step_height": ("steps",),
-    "step_length": ("steps",),
-    "amplitude": ("bumps",),
-    "wavelength": ("bumps",),
-    "seed": ("bumps",),
-    "contact": ("slope", "steps", "bumps"),
-    "friction": ("slope", "steps", "bumps"),
-    "gap": ("slope", "steps", "bumps", "push_box"),
-    "depth": ("sand", "water"),
-    "friction_angle": ("sand",),
-    "density": ("sand", "water", "push_box"),
-    "observe": ("sand", "water", "push_box"),
-    "box_size": ("push_box",),
-    "push": ("push_box",),
+# Sections that held every kind's keys before their kinds were registered parts (2026-12-02):
+# ``world.angle`` is now ``world.slope.angle``, ``baseline.population`` is
+# ``optimizer.cmaes.population``: where a key moved depends on the kind chosen (`sectioned_key`).
+# {old section: (its part now, {old key: the kinds that read it})}; only the built-in kinds
+# existed then. cmaes and sep_cmaes never read baseline.learning_rate.
+_EVOLUTION = ("cmaes", "sep_cmaes", "openai_es")
+OLD_SECTIONS: dict[str, tuple[str, dict[str, tuple[str, ...]]]] = {
+    "world": (
+        "world",
+        {
+            "angle": ("slope",),
+            "step_height": ("steps",),
+            "step_length": ("steps",),
+            "amplitude": ("bumps",),
+            "wavelength": ("bumps",),
+            "seed": ("bumps",),
+            "contact": ("slope", "steps", "bumps"),
+            "friction": ("slope", "steps", "bumps"),
+            "gap": ("slope", "steps", "bumps", "push_box"),
+            "depth": ("sand", "water"),
+            "friction_angle": ("sand",),
+            "density": ("sand", "water", "push_box"),
+            "observe": ("sand", "water", "push_box"),
+            "box_size": ("push_box",),
+            "push": ("push_box",),
+        },
+    ),
+    "baseline": (
+        "optimizer",
+        {
+            "population": _EVOLUTION,
+            "generations": _EVOLUTION,
+            "sigma": _EVOLUTION,
+            "learning_rate": ("openai_es", "ppo"),
+            **{
+                f"ppo.{key}": ("ppo",)
+                for key in (
+                    "timesteps",
+                    "envs",
+                    "rollout",
+                    "epochs",
+                    "minibatches",
+                    "hold",
+                    "evaluations",
+                    "gamma",
+                    "normalize",
+                )
+            },
+        },
+    ),
 }
+# Kinds renamed with their part: baseline=none was litl's loop.
+OLD_KINDS = {"baseline": {"none": "litl"}}
 
 
-def world_key(key: str, kind: str) -> str | None:
-    """Where an old world key (``world.angle``) lives now for a run in world `kind`
-    (``world.slope.angle``); None where that world does not read it. Other keys: unchanged."""
+def new_kind(section: str, kind: str) -> str:
+    """A kind as its part names it now (``baseline=none``: ``optimizer=litl``)."""
+    return OLD_KINDS.get(section, {}).get(kind, kind)
+
+
+def sectioned_key(key: str, kind: str) -> str | None:
+    """Where an old key of a section that held every kind's keys (``world.angle``,
+    ``baseline.population``) lives now for a run of `kind` (``world.slope.angle``,
+    ``optimizer.cmaes.population``); None where that kind does not read it. ``baseline.kind`` is
+    ``optimizer.kind``. Other keys: unchanged."""
     head, _, name = key.partition(".")
-    if head != "world" or name not in OLD_WORLD_KEYS:
+    if head not in OLD_SECTIONS:
         return key
-    return f"world.{kind}.{name}" if kind in OLD_WORLD_KEYS[name] else None
+    part, keys = OLD_SECTIONS[head]
+    if name == "kind" and part != head:
+        return f"{part}.kind"
+    if name not in keys:
+        return key
+    kind = new_kind(head, kind)
+    inner = name.removeprefix("ppo.")
+    return f"{part}.{kind}.{inner}" if kind in keys[name] else None
 
 
-def world_moved_message(key: str, kind: str) -> str:
-    """What to type instead of an old world key, or why it does not apply to world `kind`."""
-    now = world_key(key, kind)
+def sectioned_message(key: str, kind: str) -> str:
+    """What to type instead of an old key of such a section, or why `kind` does not read it."""
+    head, _, name = key.partition(".")
+    part, keys = OLD_SECTIONS[head]
+    kind = new_kind(head, kind)
+    now = sectioned_key(key, kind)
     if now is None:
-        readers = "|".join(OLD_WORLD_KEYS[key.partition(".")[2]])
         return (
-            f"{key}: the world's keys moved into each world's own section (world.<name>.<key>), and "
-            f"world={kind} has no {key.partition('.')[2]!r}; it is a key of world={readers}"
+            f"{key}: the {part}'s keys moved into each {part}'s own section ({part}.<name>.<key>), and "
+            f"{part}={kind} has no {name.removeprefix('ppo.')!r}; it is a key of "
+            f"{part}={'|'.join(keys[name])}"
         )
-    return (
-        f"{key} is now {now} (with world={kind}); the old spelling still works for now, but will not for ever"
-    )
+    return f"{key} is now {now} (with {part}={kind}); the old spelling still works for now, but not for ever"
+
+
+def chosen_kinds(overrides: Iterable[str]) -> dict[str, str]:
+    """The kind each old section's part is given in `overrides` ({"world": "slope", "baseline":
+    "cmaes"}), by its old or its new name; the default where none is."""
+    kinds = {"world": "flat", "baseline": "litl"}
+    for override in overrides:
+        key, _, value = override.lstrip("+~").partition("=")
+        for head, (part, _) in OLD_SECTIONS.items():
+            if key in (head, f"{head}.kind", part, f"{part}.kind"):
+                kinds[head] = new_kind(head, value)
+    return kinds
 
 
 # run.json files written before the config model (before 2026-11-23) kept the run's settings in
@@ -142,16 +201,13 @@ def moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
 
 def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]:
     """Command-line overrides with moved keys renamed (`MOVED_KEYS`; an old world key into the
-    chosen world's section, `world_key`), and a message for each:
+    chosen kind's section, `sectioned_key`), and a message for each:
     ``["loop.replay=false"] -> (["loop.replay_buffer=false"], ["loop.replay is now ..."])``.
-    An old world key the chosen world does not read (``world.angle=15`` without ``world=slope``)
-    is left as it is (`litl.app.compose` refuses it with `world_moved_message`)."""
+    ``baseline=cmaes`` (the group) is ``optimizer=cmaes``. An old key the chosen kind does not read
+    (``world.angle=15`` without ``world=slope``) is left as it is (`litl.app.compose` refuses it
+    with `sectioned_message`)."""
     overrides = list(overrides)
-    kind = "flat"
-    for override in overrides:
-        key, _, value = override.lstrip("+~").partition("=")
-        if key in ("world", "world.kind"):
-            kind = value
+    kinds = chosen_kinds(overrides)
     translated, messages = [], []
     for override in overrides:
         prefix = override[:1] if override[:1] in "+~" else ""
@@ -159,9 +215,20 @@ def translate_overrides(overrides: Iterable[str]) -> tuple[list[str], list[str]]
         if key in MOVED_KEYS:
             messages.append(moved_message(key))
             override = f"{prefix}{MOVED_KEYS[key]}{equals}{value}"
-        elif world_key(key, kind) not in (key, None):
-            now = world_key(key, kind)
-            messages.append(world_moved_message(key, kind))
+        elif key in OLD_SECTIONS and OLD_SECTIONS[key][0] != key:  # a group renamed
+            part = OLD_SECTIONS[key][0]
+            messages.append(
+                f"{key}={value} is now {part}={new_kind(key, value)}; the old spelling still works for now"
+            )
+            override = f"{prefix}{part}{equals}{new_kind(key, value)}"
+        elif sectioned_key(key, kinds.get(key.partition(".")[0], "")) not in (key, None):
+            head = key.partition(".")[0]
+            now = sectioned_key(key, kinds[head])
+            if key.endswith(".kind"):  # baseline.kind: optimizer.kind
+                messages.append(f"{key} is now {now}; the old spelling still works for now")
+                value = new_kind(head, value)
+            else:
+                messages.append(sectioned_message(key, kinds[head]))
             override = f"{prefix}{now}{equals}{value}"
         translated.append(override)
     return translated, messages
@@ -172,11 +239,13 @@ def _today(flat: dict[str, Any]) -> dict[str, Any]:
     recorded before methods were named (litl's), the PCA observer's field (it read the VAE's
     until it had its own, 2026-11-27)."""
     flat = {MOVED_KEYS.get(key, key): value for key, value in flat.items()}
-    if "world.kind" in flat:  # the world's keys moved into each world's section (2026-12-02)
-        kind = str(flat["world.kind"])
-        moved = {world_key(key, kind): value for key, value in flat.items()}
-        flat = {key: value for key, value in moved.items() if key is not None}
-        flat.setdefault("world.module", None)
+    for head, (part, _) in OLD_SECTIONS.items():  # kinds' keys into their sections (2026-12-02)
+        if f"{head}.kind" in flat and f"{head}.module" not in flat:
+            kind = new_kind(head, str(flat[f"{head}.kind"]))
+            moved = {sectioned_key(key, kind): value for key, value in flat.items()}
+            flat = {key: value for key, value in moved.items() if key is not None}
+            flat[f"{part}.kind"] = kind
+            flat[f"{part}.module"] = None
     flat.setdefault("method", "litl")
     flat.setdefault("controller.module", None)  # controllers of one's own came on 2026-11-27
     if "observer.pca.components" in flat:

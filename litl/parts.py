@@ -1,4 +1,5 @@
-"""The parts of the config that registries fill: the observer, the controller and the world.
+"""The parts of the config that registries fill: the observer, the controller, the world and the
+optimization method.
 
 A part has a `kind` (a registered name), an optional `module` (imported first: it registers a
 user's own) and one settings section per registered settings dataclass, read as attributes
@@ -211,16 +212,36 @@ class WorldConfig(PartConfig):
     def replace(self, **changes: Any) -> Any:
         """As `PartConfig.replace`; the keys of the world's section before worlds were parts
         (``replace(kind="slope", angle=15)``) go to the chosen world's section, with a warning."""
-        from litl.old_settings import OLD_WORLD_KEYS, world_key, world_moved_message
+        from litl.old_settings import OLD_SECTIONS, sectioned_key, sectioned_message
 
-        old = [key for key in changes if key in OLD_WORLD_KEYS]
+        old = [key for key in changes if key in OLD_SECTIONS["world"][1]]
         if old:
             kind = str(changes.get("kind", self.kind))
             section = dict(changes.get(kind, {}) or {})
             for key in old:
-                if world_key(f"world.{key}", kind) is None:
-                    raise SettingsError(world_moved_message(f"world.{key}", kind), f"world.{key}")
-                warnings.warn(world_moved_message(f"world.{key}", kind), FutureWarning, stacklevel=3)
+                if sectioned_key(f"world.{key}", kind) is None:
+                    raise SettingsError(sectioned_message(f"world.{key}", kind), f"world.{key}")
+                warnings.warn(sectioned_message(f"world.{key}", kind), FutureWarning, stacklevel=3)
                 section[key] = changes.pop(key)
             changes[kind] = section
         return super().replace(**changes)
+
+
+@dataclass(frozen=True)
+class OptimizerConfig(PartConfig):
+    """What optimizes the controller and the design (a registered method, `litl.optimizers`) and
+    its settings.
+
+    Attributes:
+      kind: litl (litl's loop, Algorithm 1: its settings are the config's `loop`), cmaes,
+        sep_cmaes, openai_es (evolution strategies), ppo, or your own.
+      module: a module to import first, which registers methods of your own
+        (`litl.optimizers.register`); then kind=<its name>.
+      sections: every registered method's settings (``optimizer.cmaes``, ``optimizer.ppo``, ...).
+    """
+
+    KEY = "optimizer"
+    PART = "optimizer"
+    kind: str = "litl"
+    module: str | None = None
+    sections: tuple[tuple[str, Any], ...] = ()

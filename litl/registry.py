@@ -196,9 +196,14 @@ _REGISTRIES: dict[str, Registry] = {}
 
 
 def registry(part: str) -> Registry:
-    """The registry of `part` (``"observer"``, ``"controller"`` or ``"world"``), its built-ins
-    registered."""
-    packages = {"observer": "litl.observers", "controller": "litl.controllers", "world": "litl.worlds"}
+    """The registry of `part` (``"observer"``, ``"controller"``, ``"world"`` or
+    ``"optimizer"``), its built-ins registered."""
+    packages = {
+        "observer": "litl.observers",
+        "controller": "litl.controllers",
+        "world": "litl.worlds",
+        "optimizer": "litl.optimizers",
+    }
     if part not in _REGISTRIES:
         _REGISTRIES[part] = Registry(part, packages[part])
     importlib.import_module(packages[part])  # registers the built-in ones (once)

@@ -53,6 +53,7 @@ LOOP = "import tempfile\nimport litl.robots"
 MODULE = "# my_robots.py"  # tests/robots/test_register.py and tests/test_cli.py run it
 OBSERVER_MODULE = "# my_observers.py"  # tests/loop/test_observers.py runs it
 WORLD_MODULE = "# my_worlds.py"  # tests/robots/test_world_registry.py runs it
+OPTIMIZER_MODULE = "# my_optimizers.py"  # tests/test_optimizers.py runs it
 ENVIRONMENTS = "import jax, jax.numpy as jnp\nimport litl.envs"
 WORLD = "import dataclasses, math\nimport litl.robots"
 SCENERY = "import dataclasses\nimport numpy as np\nimport litl.robots\nfrom litl.robots.scenery"
@@ -76,6 +77,7 @@ def test_every_block_is_checked():
                 MODULE,
                 OBSERVER_MODULE,
                 WORLD_MODULE,
+                OPTIMIZER_MODULE,
                 ENVIRONMENTS,
                 WORLD,
                 SCENERY,

@@ -12,8 +12,8 @@ A run directory holds
   `save_best`, `load_final`), and `final.json` / `best.json`, their task losses
   (`save_final_losses`, `save_best`).
 
-`litl.loop.run` (the loop) and `litl.baselines.runner` (every other method) use these pieces; what
-a run records in `run.json` is theirs to say.
+`litl.loop.run` (the loop) and `litl.optimizers.rounds` (every method that runs in rounds) use
+these pieces; what a run records in `run.json` is theirs to say.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Task loss against simulated steps: litl's runs and the baselines' (`litl.baselines`) on one
+"""Task loss against simulated steps: litl's runs and the baselines' (`litl.optimizers`) on one
 axis, the comparison of what gradients buy.
 
     python -m litl.report.budget RUN_DIR [RUN_DIR ...] --backward-cost 2.81 --out DIR
@@ -62,7 +62,7 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
     """The run's task loss against simulated steps per seed (see the module docstring)."""
     import json
 
-    litl_run = str(run.config.get("baseline.kind", "none")) == "none"
+    litl_run = str(run.config.get("optimizer.kind", "litl")) == "litl"
     final_file = run.path / "final.json"
     steps, loss, wall, seeds = [], [], [], run.seeds
     for seed in seeds:

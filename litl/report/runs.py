@@ -133,13 +133,14 @@ class Run:
 
     @property
     def head(self) -> str:
-        """What heads the run's label: a gradient-free baseline's name (``"cmaes"``), else what
-        feeds the controller: the observer, or an open-loop controller's name (``"sinusoid"``)."""
+        """What heads the run's label: an optimization method's name other than litl's loop
+        (``"cmaes"``), else what feeds the controller: the observer, or an open-loop controller's
+        name (``"sinusoid"``)."""
         from litl.registry import registry
 
-        baseline = str(self.config.get("baseline.kind", "none"))
-        if baseline != "none":
-            return baseline
+        optimizer = str(self.config.get("optimizer.kind", "litl"))
+        if optimizer != "litl":
+            return optimizer
         entry = registry("controller").find(self.controller)
         open_loop = entry.traits.get("open_loop", False) if entry is not None else self.controller != "mlp"
         return self.controller if open_loop else self.observer

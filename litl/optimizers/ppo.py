@@ -1,7 +1,7 @@
 """PPO from rejax on the robot as an environment (`litl.envs`): the RL baseline.
 
 The agent is rejax's PPO (a Gaussian policy and a value network, each an MLP of two 64-wide
-layers, swish), on `litl.envs.make(robot, hold=baseline.ppo.hold)`: it observes the particle
+layers, swish), on `litl.envs.make(robot, hold=optimizer.ppo.hold)`: it observes the particle
 summary (centroid velocity, actuator strains, a clock), acts with the actuators' activations, and
 is rewarded with the task's progress, so an episode's return is minus the task loss. It learns
 the controller only: the design stays at the robot's initial design (PPO has no handle on it).
@@ -18,41 +18,93 @@ episode's; the network updates simulate nothing and are not counted (their time 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 
-from litl.baselines.runner import Cost, seed_keys
 from litl.config import Config, SettingsError
+from litl.optimizers.interface import OptimizerContext
+from litl.optimizers.rounds import Cost, RoundsOptimizer, seed_keys
 from litl.robots.robot import Robot
+from litl.settings import Settings, number
 
 
-def _mean_action(module, obs):
+@dataclass(frozen=True)
+class PPOSettings(Settings):
+    """``optimizer.ppo``: PPO (rejax) on the robot as an environment.
+
+    Attributes:
+      timesteps: environment steps per seed, the budget (each is `hold` simulation steps).
+      envs: environments each seed's agent steps at once.
+      rollout: environment steps each of them takes between two updates.
+      epochs: passes over each update's batch (envs x rollout steps).
+      minibatches: minibatches each pass splits the batch into (must divide envs x rollout).
+      hold: simulation steps an action is held for (one environment step).
+      evaluations: times the policy's mean action is evaluated (one episode each; the curve's
+        points, and the run's checkpoints).
+      gamma: the discount.
+      normalize: running normalization of observations and rewards (rejax's).
+      learning_rate: Adam's step size (rejax's default, 3e-4).
+    """
+
+    timesteps: int = 65536
+    envs: int = 16
+    rollout: int = 64
+    epochs: int = 8
+    minibatches: int = 8
+    hold: int = 8
+    evaluations: int = 20
+    gamma: float = 0.99
+    normalize: bool = True
+    learning_rate: float = 3.0e-4
+
+    def check(self) -> None:
+        self._positive_ints("timesteps", "envs", "rollout", "epochs", "minibatches", "hold", "evaluations")
+        if (self.envs * self.rollout) % self.minibatches:
+            self._invalid(
+                "minibatches",
+                f"must divide an update's batch, envs x rollout = {self.envs * self.rollout}",
+            )
+        if self.timesteps < self.envs * self.rollout:
+            self._invalid(
+                "timesteps",
+                f"is less than one update's batch (envs x rollout = {self.envs * self.rollout}); raise it "
+                f"or lower optimizer.ppo.envs / optimizer.ppo.rollout",
+            )
+        if not (number(self.gamma) and 0 < self.gamma <= 1):
+            self._invalid("gamma", "must lie in (0, 1]")
+        self._positive_numbers("learning_rate")
+
+
+def mean_action(module, obs):
     return module._action_dist(obs).mean()
 
 
 class PPOBaseline:
-    """`litl.baselines.runner.Method` for ppo."""
+    """`litl.optimizers.rounds.Method` for ppo."""
 
-    def __init__(self, robot: Robot, config: Config):
+    algorithm: Any = None  # the loop's algorithm for this robot and config: what run.json records
+
+    def __init__(self, robot: Robot, config: Config, settings: PPOSettings):
         import litl.envs
 
         try:
             from rejax import PPO
         except ImportError as error:  # pragma: no cover - rejax is a declared dependency
             raise SettingsError(
-                f"baseline=ppo needs rejax ({error}); install litl with its test or rl extra: "
+                f"optimizer=ppo needs rejax ({error}); install litl with its test or rl extra: "
                 f'pip install -e ".[rl]"',
-                "baseline.kind",
+                "optimizer.kind",
             ) from error
         if config.observer.kind != "none":
             raise SettingsError(
-                f"baseline=ppo observes the environment's particle summary, not an observer's features; "
+                f"optimizer=ppo observes the environment's particle summary, not an observer's features; "
                 f"observer={config.observer.kind} is not used by it (drop the override, or set "
                 f"observer=none)",
                 "observer.kind",
             )
-        settings = config.baseline.ppo
         self.name = "ppo"
         self.seeds = [config.seed + s for s in range(config.seeds)]
         env, params = litl.envs.make(robot, hold=settings.hold, dtype=jnp.dtype(config.sim.dtype.value))
@@ -76,7 +128,7 @@ class PPOBaseline:
             num_steps=settings.rollout,
             num_epochs=settings.epochs,
             num_minibatches=settings.minibatches,
-            learning_rate=config.baseline.learning_rate,
+            learning_rate=settings.learning_rate,
             gamma=settings.gamma,
             normalize_observations=settings.normalize,
             normalize_rewards=settings.normalize,
@@ -103,7 +155,7 @@ class PPOBaseline:
         def act(obs):
             if algo.normalize_observations:
                 obs = algo.normalize_obs(ts.obs_rms_state, obs)
-            mean = algo.actor.apply(ts.actor_ts.params, obs[None], method=_mean_action)[0]
+            mean = algo.actor.apply(ts.actor_ts.params, obs[None], method=mean_action)[0]
             return jnp.clip(mean, -1.0, 1.0)
 
         obs, state = env.reset(jax.random.key(0), params)
@@ -137,3 +189,13 @@ class PPOBaseline:
     def cost(self, round_index: int) -> Cost:
         steps = self._episode_steps + (0 if round_index == 0 else self._train_steps)
         return Cost(steps, steps / self._robot_steps)
+
+
+def ppo(robot: Robot, settings: PPOSettings, context: OptimizerContext) -> RoundsOptimizer:
+    """`optimizer=ppo`: rejax's PPO on `litl.envs`, controlling only."""
+    from litl.loop.algorithm import make_algorithm
+
+    method = PPOBaseline(robot, context.config, settings)
+    method.algorithm = make_algorithm(robot, context.config)  # what run.json records of the run
+    budget = f"ppo, {settings.timesteps} environment steps of {settings.hold} simulation steps"
+    return RoundsOptimizer(method, robot, context.config, budget)

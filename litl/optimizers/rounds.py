@@ -1,5 +1,6 @@
-"""The impure side of a baseline run, shared by every method: the run directory (lock, run.json,
-metrics.jsonl, final.json), checkpoints and resuming, progress.
+"""The impure side of an optimization method that runs in rounds (the evolution strategies and
+PPO): the run directory (lock, run.json, metrics.jsonl, final.json), checkpoints and resuming,
+progress.
 
 A method (`Method`) is pure: `init()` gives every seed's state (batched), `advance(state, r)` runs
 round r (an ES generation, a stretch of PPO updates and an evaluation) and gives the new state
@@ -47,6 +48,8 @@ def seed_keys(seeds: list[int]) -> jax.Array:
 class Method(Protocol):
     name: str
     rounds: int
+    seeds: list[int]
+    algorithm: Any  # the `litl.loop.algorithm.Algorithm` whose controller and design it optimizes
 
     def init(self) -> Any: ...
 
@@ -79,7 +82,7 @@ def _run_locked(method, seeds, run_dir, wanted, config_files, progress, checkpoi
         raise SettingsError(
             f"{run_dir} already holds a run's metrics but no checkpoint to resume it from; choose a new "
             f"run directory (hydra.run.dir=...). Nothing was changed.",
-            "baseline.kind",
+            "optimizer.kind",
         )
     claim(run_dir, wanted, config_files)
     state = method.init()
@@ -137,3 +140,27 @@ def _number(value) -> float | int | None:
         return int(value)
     value = float(value)
     return value if math.isfinite(value) else None
+
+
+class RoundsOptimizer:
+    """A `Method` as a `litl.optimizers.Optimizer`: runs its rounds in a run directory and says
+    the final task loss per seed."""
+
+    def __init__(self, method: Method, robot: Any, config: Any, budget: str):
+        self.method, self.robot, self.config, self._budget = method, robot, config, budget
+        self.name = method.name
+
+    def budget(self) -> str:
+        return self._budget
+
+    def run(self, run_dir: Any, progress: bool, config_files: dict[str, str]) -> dict:
+        from litl.loop.run import settings
+
+        wanted = settings(self.robot, self.config, self.method.algorithm)
+        method = self.method
+        done = run_rounds(method, method.seeds, pathlib.Path(run_dir), wanted, config_files, progress)
+        losses = ", ".join(
+            "n/a" if f["task_loss"] is None else f"{f['task_loss']:.6g}" for f in done["final"]
+        )
+        say(f"litl: {self.name}: final task loss per seed [{losses}]; results in {run_dir}")
+        return done

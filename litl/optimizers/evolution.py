@@ -1,0 +1,180 @@
+"""Evolution strategies (evosax) on what litl's gradients optimize: the controller network θ and the
+design φ (Young's modulus per region, in units of its range, kept in its bounds).
+
+``cmaes``: CMA-ES with evosax's defaults but the initial step size `sigma` (its covariance is n x n
+for n parameters, decomposed every generation: at the biped's MLP, n = 6152, a generation takes
+seconds per seed on a CPU); ``sep_cmaes``: separable CMA-ES (Ros & Hansen 2008, a diagonal
+covariance: linear in n, the variant meant for networks), likewise; ``openai_es``: OpenAI-ES with
+mirrored sampling, standard deviation `sigma` and Adam at `learning_rate` on the mean. Each has its
+own settings (``optimizer.cmaes.population`` and so on). One strategy per seed, all seeds and each
+generation's population simulated at once (vmapped); a candidate's fitness is the task loss of one
+forward simulation, the rollout litl differentiates. A generation costs population + 1 simulations
+(the candidates and the strategy's mean, whose loss is the generation's ``task_loss``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+
+from litl.config import Config, SettingsError
+from litl.loop.algorithm import make_algorithm
+from litl.optimizers.interface import OptimizerContext
+from litl.optimizers.rounds import Cost, RoundsOptimizer, seed_keys
+from litl.robots.robot import Robot
+from litl.settings import Settings
+
+
+@dataclass(frozen=True)
+class EvolutionSettings(Settings):
+    """An evolution strategy's keys (``optimizer.cmaes``, ``optimizer.sep_cmaes``,
+    ``optimizer.openai_es``).
+
+    Attributes:
+      population: candidates per generation (>= 2); each costs one forward simulation.
+      generations: generations to run (the budget: generations x (population + 1) simulations).
+      sigma: the search distribution's (initial) standard deviation on the controller's weights
+        and the design variables (Young's modulus in units of its range).
+    """
+
+    population: int = 16
+    generations: int = 50
+    sigma: float = 0.1
+
+    def check(self) -> None:
+        if isinstance(self.population, bool) or not isinstance(self.population, int) or self.population < 2:
+            self._invalid("population", "must be an integer >= 2")
+        self._positive_ints("generations")
+        self._positive_numbers("sigma")
+
+
+@dataclass(frozen=True)
+class CMAESSettings(EvolutionSettings):
+    """``optimizer.cmaes``: CMA-ES (`EvolutionSettings`' keys)."""
+
+
+@dataclass(frozen=True)
+class SepCMAESSettings(EvolutionSettings):
+    """``optimizer.sep_cmaes``: separable CMA-ES (`EvolutionSettings`' keys)."""
+
+
+@dataclass(frozen=True)
+class OpenAIESSettings(EvolutionSettings):
+    """``optimizer.openai_es``: `EvolutionSettings`' keys (the population even: its samples come
+    in mirrored pairs) and
+
+    Attributes:
+      learning_rate: Adam's step size on the mean.
+    """
+
+    learning_rate: float = 0.03
+
+    def check(self) -> None:
+        super().check()
+        if self.population % 2:
+            self._invalid("population", "must be even for openai_es (its samples come in mirrored pairs)")
+        self._positive_numbers("learning_rate")
+
+
+def _strategy(kind: str, settings: EvolutionSettings, template):
+    """The evosax strategy and its parameters: (separable) CMA-ES with its defaults but the initial
+    step size; OpenAI-ES with mirrored sampling, a constant standard deviation and Adam on the mean."""
+    import optax
+    from evosax.algorithms import CMA_ES, Open_ES, Sep_CMA_ES
+
+    if isinstance(settings, OpenAIESSettings):
+        strategy = Open_ES(
+            population_size=settings.population,
+            solution=template,
+            optimizer=optax.adam(settings.learning_rate),
+            std_schedule=optax.constant_schedule(settings.sigma),
+        )
+        return strategy, strategy.default_params
+    algorithm = {"cmaes": CMA_ES, "sep_cmaes": Sep_CMA_ES}[kind]
+    strategy = algorithm(population_size=settings.population, solution=template)
+    params = strategy.default_params
+    return strategy, params.replace(std_init=jnp.asarray(settings.sigma, params.std_init.dtype))
+
+
+class EvolutionStrategy:
+    """`litl.optimizers.rounds.Method` for cmaes, sep_cmaes and openai_es: a round is one
+    generation."""
+
+    def __init__(self, robot: Robot, config: Config, kind: str, settings: EvolutionSettings):
+        self.algorithm = algorithm = make_algorithm(robot, config)
+        if algorithm.observer.learned:
+            raise SettingsError(
+                f"optimizer={kind} optimizes the controller and design on fixed features, "
+                f"and observer {config.observer.kind!r} learns; use observer=kmeans or observer=none",
+                "observer.kind",
+            )
+        self.name = kind
+        self.rounds = settings.generations
+        self.seeds = [config.seed + s for s in range(config.seeds)]
+        self._per_generation = settings.population + 1
+        starts = [algorithm.init(seed) for seed in self.seeds]
+        # The design in units of its range (0: E_min, 1: E_max), so that one step size suits it
+        # and the controller's weights alike.
+        low, high = robot.design_space.bounds
+        normalized = [(s.design - low) / (high - low) for s in starts]
+        strategy, params = _strategy(kind, settings, (starts[0].controller, normalized[0]))
+        stack = lambda trees: jax.tree.map(lambda *leaves: jnp.stack(leaves), *trees)  # seeds first
+        self._observers = stack([s.observer for s in starts])
+        self._means = stack([(s.controller, u) for s, u in zip(starts, normalized, strict=True)])
+
+        def fitness(solution, observer):
+            controller, design = solution
+            loss, _ = algorithm.simulate(
+                controller, low + jnp.clip(design, 0.0, 1.0) * (high - low), observer
+            )
+            return jnp.where(jnp.isfinite(loss), loss, jnp.inf)
+
+        def generation(key, state, observer):
+            ask_key, tell_key = jax.random.split(key)
+            population, state = strategy.ask(ask_key, state, params)
+            losses = jax.vmap(fitness, in_axes=(0, None))(population, observer)
+            mean_loss = fitness(strategy.get_mean(state), observer)
+            state, _ = strategy.tell(tell_key, population, losses, state, params)
+            finite_mean = jnp.mean(jnp.where(jnp.isfinite(losses), losses, jnp.nan))
+            return state, {
+                "task_loss": mean_loss,
+                "population_best": jnp.min(losses),
+                "population_mean": finite_mean,
+            }
+
+        def advance(keys, states, observers):
+            # Each generation's keys: every seed's key split, the first half kept.
+            keys = jax.vmap(lambda k: jax.random.key_data(jax.random.split(jax.random.wrap_key_data(k))[0]))(
+                keys
+            )
+            one = lambda key, state, observer: generation(jax.random.wrap_key_data(key), state, observer)
+            states, figures = jax.vmap(one)(keys, states, observers)
+            return (keys, states), figures
+
+        self._advance = jax.jit(advance)  # traced once, not at every generation
+        self._init = jax.vmap(lambda key, mean: strategy.init(jax.random.wrap_key_data(key), mean, params))
+
+    def init(self):
+        keys = seed_keys(self.seeds)
+        return keys, self._init(keys, self._means)
+
+    def advance(self, state, round_index: int):
+        keys, states = state
+        return self._advance(keys, states, self._observers)
+
+    def cost(self, round_index: int) -> Cost:
+        return Cost(self._per_generation * self.algorithm.steps, float(self._per_generation))
+
+
+def evolution_strategy(kind: str):
+    """The factory of `optimizer=<kind>` (cmaes, sep_cmaes or openai_es)."""
+
+    def factory(robot: Robot, settings: EvolutionSettings, context: OptimizerContext) -> RoundsOptimizer:
+        method = EvolutionStrategy(robot, context.config, kind, settings)
+        budget = f"{kind}, {settings.generations} generations of {settings.population}"
+        return RoundsOptimizer(method, robot, context.config, budget)
+
+    factory.__name__ = factory.__qualname__ = kind
+    return factory
