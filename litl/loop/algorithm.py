@@ -164,7 +164,8 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         )
     simulation = Simulation(
         robot=robot,
-        config=config,
+        sim=config.sim,
+        seeds=config.seeds,
         dtype=dtype,
         steps=steps,
         stride=stride,
@@ -172,8 +173,8 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         observer=observer,
         controller=controllers.make(config.controller, robot, ControllerContext(dtype)),
     )
-    optimization = Optimization(simulation, config, schedule)
-    retraining = Retraining(simulation, config)
+    optimization = Optimization(simulation, config.loop, config.controller.learning_rate, schedule)
+    retraining = Retraining(simulation, config.loop)
     return Algorithm(
         init=functools.partial(
             _init, simulation.observer, jax.jit(functools.partial(_initial_state, simulation, optimization))
@@ -256,7 +257,7 @@ def _initial_state(
         observer=observer_params,
         observer_optimizer=observer_optimizer,
         buffer=ReplayBuffer.empty(
-            simulation.config.loop.buffer_capacity, simulation.window.shape, dim, dtype
+            optimization.loop.buffer_capacity, simulation.window.shape, dim, dtype
         ),
         key=key_data,
         stats=empty_statistics(observer, dtype, dim),

@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from litl.config import Config
+from litl.config import LoopConfig
 from litl.loop.schedule import LearningSchedule
 from litl.loop.simulation import Simulation
 from litl.loop.state import MAX_STEP_BACKS, Anchor, Best, LoopState, keep_if, skip_reason, split_key
@@ -36,22 +36,24 @@ class Optimization:
 
     Attributes:
       simulation: the rollouts to differentiate.
-      config: the run's settings (`controller.learning_rate`, `loop.*`).
+      loop: the loop's settings (step sizes, the replay buffer, co-design, the safeguards).
+      learning_rate: the controller's Adam step size (`controller.learning_rate`).
       schedule: `loop.schedule` as the algorithm resolved it (`LearningSchedule.fixed` for an
         observer that does not learn).
     """
 
     simulation: Simulation
-    config: Config
+    loop: LoopConfig
+    learning_rate: float
     schedule: LearningSchedule
 
     @functools.cached_property
     def controller_adam(self) -> optax.GradientTransformation:
-        return adam(self.config.controller.learning_rate, self.config.loop.safeguards.gradient_clip)
+        return adam(self.learning_rate, self.loop.safeguards.gradient_clip)
 
     @functools.cached_property
     def design_adam(self) -> optax.GradientTransformation:
-        return adam(self.config.loop.design_learning_rate, self.config.loop.safeguards.gradient_clip)
+        return adam(self.loop.design_learning_rate, self.loop.safeguards.gradient_clip)
 
     def optimize(self, state: LoopState, iterations_in_run=None):
         """One optimization iteration (see the module docstring); returns (state, metrics).
@@ -127,7 +129,7 @@ class Optimization:
         the simultaneous schedule, the observer's one step on them; returns (state, that step's
         reconstruction loss, NaN on the other schedules)."""
         snapshots = trajectory.snapshots
-        keep = add if self.config.loop.replay_buffer else replace_with
+        keep = add if self.loop.replay_buffer else replace_with
         state = state.replace(
             buffer=keep(state.buffer, snapshots, self.simulation.snapshot_velocities(trajectory))
         )
@@ -147,14 +149,14 @@ class Optimization:
     def may_step_back(self, anchor: Anchor) -> jnp.ndarray:
         """() bool: step backs are on (`loop.safeguards.step_back_tolerance` not None), there is
         an accepted iterate to return to, and its step may still be halved."""
-        if self.config.loop.safeguards.step_back_tolerance is None:
+        if self.loop.safeguards.step_back_tolerance is None:
             return jnp.zeros((), bool)
         return jnp.isfinite(anchor.task_loss) & (anchor.step_scale > 0.5**MAX_STEP_BACKS)
 
     def falls_back(self, anchor: Anchor, total) -> jnp.ndarray:
         """() bool: the rollout's task loss is worse than the anchor's by more than
         `loop.safeguards.step_back_tolerance` x |anchor's loss|, and the step may still be halved."""
-        tolerance = self.config.loop.safeguards.step_back_tolerance
+        tolerance = self.loop.safeguards.step_back_tolerance
         if tolerance is None:
             return jnp.zeros((), bool)
         limit = anchor.task_loss + tolerance * jnp.abs(anchor.task_loss)
@@ -198,7 +200,7 @@ class Optimization:
         a cosine from 1 at the first to `loop.safeguards.final_learning_rate_fraction` at the
         last of the run's K x M iterations (`iterations_in_run`; None: the config's) (constant 1
         when that is 1, the paper's setting)."""
-        loop = self.config.loop
+        loop = self.loop
         final = loop.safeguards.final_learning_rate_fraction
         total = loop.episodes * loop.iterations if iterations_in_run is None else iterations_in_run
         last = jnp.maximum(jnp.asarray(total) - 1, 1).astype(self.simulation.dtype)
@@ -218,7 +220,7 @@ class Optimization:
             controller=optax.apply_updates(state.controller, shrink(updates)),
             controller_optimizer=controller_optimizer,
         )
-        if self.config.loop.codesign:
+        if self.loop.codesign:
             updates, design_optimizer = self.design_adam.update(
                 design_grad, state.design_optimizer, state.design
             )

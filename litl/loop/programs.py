@@ -9,9 +9,9 @@ only the last step, XLA's compilation.
 
 `programs(robot, config, reports_epochs, seeds_at_once)` returns the same `Programs` (the
 algorithm and its jit-of-vmap functions) for the same content: the robot's (every particle,
-material value and setting, compared by value: two robots built alike share), the config's but
-for what no program reads (`seed`, the first seed's number, `output`, and `loop.episodes`,
-which `optimize` takes as a value), the registered
+material value and setting, compared by value: two robots built alike share), the config's
+sections that `make_algorithm` reads (observer, controller, sim, loop but `loop.episodes`, which
+`optimize` takes as a value, and seeds), the registered
 observer's and controller's factories, and JAX's 64-bit mode. A key that cannot be made (an
 object litl cannot compare by value, such as a user's task holding an open file) builds afresh.
 
@@ -36,7 +36,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from litl.config import Config, OutputConfig
+from litl.config import Config
 from litl.loop.algorithm import make_algorithm
 from litl.registry import registry
 from litl.robots.robot import Robot
@@ -151,17 +151,22 @@ def cache_size() -> int:
 
 
 def _key(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Any:
-    # Not read by any program: the first seed, the output, the number of episodes (the run passes
-    # its length to `optimize` as a value).
-    unread = dataclasses.replace(
-        config, seed=0, output=OutputConfig(), loop=dataclasses.replace(config.loop, episodes=1)
+    # What `make_algorithm` reads, and only that: the observer, the controller, the rollout's and
+    # the loop's settings and the seed count (the run passes its length to `optimize` as a value,
+    # so the number of episodes is not read either).
+    read = (
+        config.observer,
+        config.controller,
+        config.sim,
+        dataclasses.replace(config.loop, episodes=1),
+        config.seeds,
     )
     factories = (
         registry("observer").get(config.observer.kind).factory,
         registry("controller").get(config.controller.kind).factory,
     )
     return content_key(
-        (robot, unread, factories, reports_epochs, seeds_at_once, bool(jax.config.jax_enable_x64))  # type: ignore[attr-defined]
+        (robot, read, factories, reports_epochs, seeds_at_once, bool(jax.config.jax_enable_x64))  # type: ignore[attr-defined]
     )
 
 

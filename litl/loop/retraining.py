@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from litl.config import Config
+from litl.config import LoopConfig
 from litl.loop.simulation import Simulation
 from litl.loop.state import LoopState, keep_if, skip_reason, split_key
 from litl.models.replay_buffer import add
@@ -42,11 +42,11 @@ class Retraining:
 
     Attributes:
       simulation: the rollouts (the buffer's first snapshots; the check of an update).
-      config: the run's settings (`loop.alpha`, `loop.safeguards.update_tolerance`).
+      loop: the loop's settings (`alpha`, `safeguards.update_tolerance`).
     """
 
     simulation: Simulation
-    config: Config
+    loop: LoopConfig
 
     @property
     def learner(self):
@@ -100,8 +100,8 @@ class Retraining:
         of named values), kept only if the controller does no worse with it; Θ ← Θ′ where
         `first` (a () bool array). The statistics come back as a dict with ``update_accepted``."""
         first = jnp.asarray(first, bool)
-        updated = soft_update(state.observer, trained, self.config.loop.alpha)
-        tolerance = self.config.loop.safeguards.update_tolerance
+        updated = soft_update(state.observer, trained, self.loop.alpha)
+        tolerance = self.loop.safeguards.update_tolerance
         accepted = jnp.ones((), bool)
         if tolerance is not None:
             accepted = self.update_is_safe(state, updated, tolerance) | first

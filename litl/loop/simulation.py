@@ -14,7 +14,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from litl.config import Config
+from litl.config import RolloutConfig
 from litl.controllers import Controller
 from litl.loop.state import LoopState
 from litl.models.window import Window
@@ -32,7 +32,8 @@ class Simulation:
 
     Attributes:
       robot: the robot and its task.
-      config: the run's settings.
+      sim: the rollout's settings (its memory budget and checkpointing).
+      seeds: the seeds vmapped together (each gets its share of the memory budget).
       dtype: the simulation's float dtype.
       steps: steps per rollout.
       stride: the snapshot stride (a snapshot of the grid field every `stride` steps).
@@ -43,7 +44,8 @@ class Simulation:
     """
 
     robot: Robot
-    config: Config
+    sim: RolloutConfig
+    seeds: int
     dtype: Any
     steps: int
     stride: int
@@ -87,7 +89,7 @@ class Simulation:
     @functools.cached_property
     def rollout(self):
         """One seed's rollout; the seeds run vmapped, so each gets its share of the budget."""
-        sim, seeds = self.config.sim, self.config.seeds
+        sim, seeds = self.sim, self.seeds
         budget = sim.budget_bytes(seeds)
         if budget is None:
             budget = default_budget_bytes() // seeds
