@@ -56,7 +56,7 @@ def measure(program: str, seeds: int, dx: float, steps: int | None, repeats: int
 
     import litl.robots
     from litl.loop import make_algorithm, stack_seeds
-    from litl.loop.run import _iteration_records
+    from litl.loop.run import iteration_records
 
     robot = litl.robots.get("biped", dx=dx)
     config = _config(program, seeds, steps)
@@ -88,7 +88,7 @@ def measure(program: str, seeds: int, dx: float, steps: int | None, repeats: int
         _, metrics = out
         start = time.perf_counter()
         metrics = jax.tree.map(np.asarray, metrics)
-        records = _iteration_records(
+        records = iteration_records(
             metrics,
             jax.tree.map(np.asarray, state.stats),
             np.asarray(state.design),

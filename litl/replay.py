@@ -144,7 +144,7 @@ def replay(
         "run_steps": json.loads((run_dir / "run.json").read_text())["steps"],
         "task_loss": evaluated["task_loss"],
         "components": evaluated["components"],
-        "recorded_loss": _recorded_loss(run_dir, which, seed),
+        "recorded_loss": recorded_loss(run_dir, which, seed),
         "design": np.asarray(one["design"]).tolist(),
         "design_bounds": list(space.bounds),
         # How close the robot came to leaving the grid, per face (recorded frames only).
@@ -302,7 +302,7 @@ def _components(robot, algorithm, params, steps) -> dict:
     return {name: float(np.asarray(value)) for name, value in components.items()}
 
 
-def _recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
+def recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
     """The loss the run recorded for the same parameters (None if it recorded none). A seed that
     ended stuck reports its last good loss in final.json (`litl.stuck`); its final parameters'
     own loss is `final_parameters_loss` there (also for a seed whose final parameters failed

@@ -37,6 +37,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -59,8 +60,6 @@ from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and 
     skip_reason,
     stack_seeds,
 )
-from litl.models.controller import MLPController
-from litl.models.open_loop import SinusoidController
 from litl.models.replay_buffer import ReplayBuffer
 from litl.observers import Observer, ObserverContext
 from litl.robots.robot import Robot
@@ -96,7 +95,7 @@ class Algorithm:
     # the controller module, and field(grid), the grid field the policy reads
     # (`litl.sim.fields`; pass it to `make_rollout`).
     policy: Callable
-    controller: MLPController | SinusoidController
+    controller: Any  # the registered controller's module (`litl.controllers.Controller.module`)
     field: Callable
     # simulate(controller, design, observer, initial=None) -> (task loss, (components,
     # trajectory)): one differentiable rollout, from the robot's initial state or `initial`.
@@ -256,9 +255,7 @@ def _initial_state(
         design_optimizer=optimization.design_adam.init(design),
         observer=observer_params,
         observer_optimizer=observer_optimizer,
-        buffer=ReplayBuffer.empty(
-            optimization.loop.buffer_capacity, simulation.window.shape, dim, dtype
-        ),
+        buffer=ReplayBuffer.empty(optimization.loop.buffer_capacity, simulation.window.shape, dim, dtype),
         key=key_data,
         stats=empty_statistics(observer, dtype, dim),
         best=Best(

@@ -299,7 +299,7 @@ class _Shell:
                 self._say_checkpoint_plan()
                 metrics = jax.tree.map(np.asarray, metrics)
                 step = episode * iterations + iteration
-                new = _iteration_records(
+                new = iteration_records(
                     metrics,
                     stats,
                     np.asarray(state.design),
@@ -344,7 +344,7 @@ class _Shell:
             self.logger.image(self.seeds[0], "observer/snapshots", pixels, step)
 
 
-def _iteration_records(metrics, stats, design, seeds, position, before, seconds, learner) -> list[dict]:
+def iteration_records(metrics, stats, design, seeds, position, before, seconds, learner) -> list[dict]:
     """One `metrics.jsonl` record per seed of an optimization iteration (arrays batched over
     seeds): `position` = (episode, iteration, global step); `stats`, the statistics of the learning
     phase whose observer is in use (what `learner.records` repeats of them); `before`, the task

@@ -51,7 +51,8 @@ def _check_rollout(name, layout, positions, actuation):
     return positions, actuation
 
 
-def _writer(suffix: str, fps: float):
+def animation_writer(suffix: str, fps: float):
+    """The matplotlib writer for an animation file of `suffix` (.gif or .mp4) at `fps` frames a second."""
     # matplotlib's stubs say int; its writers take any positive number of frames per second.
     if suffix == ".gif":
         return manimation.PillowWriter(fps=fps)  # type: ignore[arg-type]
@@ -126,7 +127,7 @@ def animate_rollout(
         [c for c in config.boundary.colliders if c.moving] if config is not None and layout.dim == 2 else []
     )
     frame_seconds = frame_seconds or (config.dt if config is not None else 0.0)
-    writer = _writer(suffix, fps)
+    writer = animation_writer(suffix, fps)
     frames = range(0, len(positions), stride)
 
     # A bare Figure (not pyplot's): nothing pops up in interactive sessions and nothing leaks.

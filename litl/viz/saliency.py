@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from litl.models.controller import MLPController
 from litl.models.vae import AutoencoderParams, ConvAutoencoder, make_observer
-from litl.viz.animation import SUFFIXES, _writer, save_animation
+from litl.viz.animation import SUFFIXES, animation_writer, save_animation
 from litl.viz.latent import PICK_SEED, check_fields, check_observer
 from litl.viz.robots import VizError
 
@@ -175,7 +175,7 @@ def animate_saliency(
         raise VizError(f"stride must be a positive integer, got {stride!r}")
     if not fps > 0:
         raise VizError(f"fps must be positive, got {fps!r}")
-    writer = _writer(path.suffix.lower(), fps)
+    writer = animation_writer(path.suffix.lower(), fps)
     check_observer(model, observer_params)
     fields = check_fields(model, snapshots)
     times = _check_times(times, len(fields))

@@ -131,13 +131,13 @@ def test_the_claims_tables_count_and_mark_the_stuck_seed(stuck_run):
 
 
 def test_the_replay_compares_a_stuck_seed_with_its_final_parameters_own_loss(stuck_run):
-    from litl.replay import _recorded_loss
+    from litl.replay import recorded_loss
 
     run_dir, _, _ = stuck_run
     final = json.loads((run_dir / "final.json").read_text())
-    assert _recorded_loss(run_dir, "final", 0) == final[0]["final_parameters_loss"]
-    assert _recorded_loss(run_dir, "final", 0) != final[0]["task_loss"]
-    assert _recorded_loss(run_dir, "final", 1) == final[1]["task_loss"]
+    assert recorded_loss(run_dir, "final", 0) == final[0]["final_parameters_loss"]
+    assert recorded_loss(run_dir, "final", 0) != final[0]["task_loss"]
+    assert recorded_loss(run_dir, "final", 1) == final[1]["task_loss"]
 
 
 def test_final_parameters_that_fail_after_a_healthy_last_iteration_keep_that_iterations_loss(tmp_path):
@@ -160,7 +160,7 @@ def test_final_parameters_that_fail_after_a_healthy_last_iteration_keep_that_ite
         "final_parameters_loss": None,
     }
     assert other == {"seed": 1, "task_loss": -1.5}
-    from litl.replay import _recorded_loss
+    from litl.replay import recorded_loss
 
-    assert _recorded_loss(tmp_path, "final", 0) is None
-    assert _recorded_loss(tmp_path, "final", 1) == -1.5
+    assert recorded_loss(tmp_path, "final", 0) is None
+    assert recorded_loss(tmp_path, "final", 1) == -1.5
