@@ -242,7 +242,10 @@ def _today(flat: dict[str, Any]) -> dict[str, Any]:
     for head, (part, _) in OLD_SECTIONS.items():  # kinds' keys into their sections (2026-12-02)
         if f"{head}.kind" in flat and f"{head}.module" not in flat:
             kind = new_kind(head, str(flat[f"{head}.kind"]))
-            moved = {sectioned_key(key, kind): value for key, value in flat.items()}
+            moved = {
+                (sectioned_key(key, kind) if key.startswith(f"{head}.") else key): value
+                for key, value in flat.items()
+            }
             flat = {key: value for key, value in moved.items() if key is not None}
             flat[f"{part}.kind"] = kind
             flat[f"{part}.module"] = None

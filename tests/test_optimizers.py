@@ -63,6 +63,14 @@ def test_the_old_baseline_spellings_still_work_with_a_message():
         "module": None,
         "cmaes": {"population": 4, "generations": 2, "sigma": 0.1},
     }
+    # A composed config of that time (.hydra/config.yaml) holds both old sections: each moves by
+    # its own kind.
+    both = upgrade({"world": {"kind": "slope", "angle": 12.0, "depth": 0.1}, "baseline": old})
+    assert both["optimizer"]["cmaes"]["population"] == 4 and both["world"]["slope"] == {"angle": 12.0}
+    assert upgrade({"world": {"kind": "flat"}, "baseline": {**old, "kind": "none"}})["optimizer"] == {
+        "kind": "litl",
+        "module": None,
+    }
 
 
 def test_a_cmaes_run_writes_a_run_directory_the_report_reads(cmaes_run):
