@@ -44,3 +44,10 @@ def test_no_private_name_is_imported_from_a_litl_module(folder):
                         f"{path.relative_to(ROOT)}:{node.lineno} imports {private} from {node.module}"
                     )
     assert not found, "make these names public, or keep them in their module:\n" + "\n".join(found)
+
+
+def test_every_script_in_benchmarks_is_named_in_the_benchmarks_page():
+    page = (ROOT / "docs" / "results" / "benchmarks.md").read_text()
+    index = page.split("## What `benchmarks/` holds", 1)[1].split("\n## ", 1)[0]
+    unnamed = [p.name for p in sorted((ROOT / "benchmarks").glob("*.py")) if f"`{p.name}`" not in index]
+    assert not unnamed, f"name these in docs/results/benchmarks.md's index, or move them out: {unnamed}"
