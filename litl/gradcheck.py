@@ -27,7 +27,7 @@ import sys
 import numpy as np
 
 from litl.errors import UserError, exit_on_user_error
-from litl.roundoff import hardly_moved
+from litl.report.roundoff import hardly_moved
 
 GROUPS = ("controller", "design", "initial velocity", "initial position")
 
@@ -126,7 +126,7 @@ def check_gradients(
                 f"the rollout's task loss is {float(value)}: the simulation "
                 f"is unhealthy at these settings, nothing to check"
             )
-        # The report's rule too (litl.roundoff): a robot that has hardly moved is not checkable.
+        # The report's rule too (litl.report.roundoff): a robot that has hardly moved is not checkable.
         if hardly_moved(float(value), np.float64):
             raise GradcheckError(
                 f"the task loss is {float(value):.3g} after {steps} steps: the robot has hardly "

@@ -31,7 +31,7 @@ def test_the_docs_build_without_warnings(tmp_path):
             "replay",
             'id="litl.report.summary.write_report"',
             'id="litl.report.cli.main"',
-            'id="litl.pictures.draw_run"',
+            'id="litl.viz.run_pictures.draw_run"',
             'id="litl.viz.saliency.animate_saliency"',
         ],
     }

@@ -1,5 +1,5 @@
 """A report knows a run that did not move: a task loss that never left round-off is not a result
-(the rule `litl.gradcheck` applies, `litl.roundoff`), and "the last N iterations" is never longer
+(the rule `litl.gradcheck` applies, `litl.report.roundoff`), and "the last N iterations" is never longer
 than the run."""
 
 import json
@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from litl import gradcheck, roundoff
-from litl.report import main
+from litl import gradcheck
+from litl.report import main, roundoff
 from tests.test_report import write_run
 
 

@@ -125,7 +125,7 @@ class Observer:
         plain node velocities, or mass-weighted ones, `litl.sim.fields`); None: it reads no grid
         field (the loop hands it plain velocities, and no learner needs snapshots of them).
       pictures: ``pictures(robot, algorithm, state, run_dir, stride) -> [paths]``: the pictures
-        of its representation for one seed's final `LoopState` (`litl.pictures` calls it); None:
+        of its representation for one seed's final `LoopState` (`litl.viz.run_pictures` calls it); None:
         no pictures.
     """
 

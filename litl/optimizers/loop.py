@@ -33,7 +33,7 @@ class LoopOptimizer:
         with RunDirectoryLock(run_dir):  # held through the pictures too
             result = run(robot, config, run_dir, progress=progress, config_files=config_files)
             if output.pictures or output.animation:
-                from litl.pictures import draw_run
+                from litl.viz.run_pictures import draw_run
 
                 draw_run(
                     robot,

@@ -14,6 +14,7 @@ import numpy as np
 
 from litl.formatting import format_number
 from litl.report import figures
+from litl.report.roundoff import hardly_moved, threshold
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
 from litl.report.stats import (
     components,
@@ -25,7 +26,6 @@ from litl.report.stats import (
     series_ends,
     table1,
 )
-from litl.roundoff import hardly_moved, threshold
 
 # The final performance of a seed: the mean of its last this many iterations.
 FINAL_WINDOW = 10
@@ -153,7 +153,7 @@ def _missing_notes(group: Group, steps: np.ndarray, values: np.ndarray) -> list[
 
 
 def _round_off(group: Group, source: pathlib.Path) -> dict[str, Any]:
-    """The seeds of `group` whose task loss never left round-off (`litl.roundoff`, the rule
+    """The seeds of `group` whose task loss never left round-off (`litl.report.roundoff`, the rule
     `litl.gradcheck` applies), with the threshold of each run's float type."""
     still, thresholds = [], set()
     for run in group.runs:

@@ -331,7 +331,7 @@ def mean_speed_observer(robot, settings, context):
 
 def test_a_learning_observer_defined_here_runs_through_the_loop_and_the_pictures(tmp_path):
     from litl.loop.run import run
-    from litl.pictures import draw_run
+    from litl.viz.run_pictures import draw_run
 
     observers.register("mean_speed", mean_speed_observer, replace=True)
     config = tiny_config(observer={"kind": "mean_speed"}, seeds=1)
@@ -351,7 +351,7 @@ def test_a_learning_observer_defined_here_runs_through_the_loop_and_the_pictures
 
 def test_pca_runs_through_the_loop_report_and_pictures(tmp_path):
     from litl.loop.run import run
-    from litl.pictures import draw_run
+    from litl.viz.run_pictures import draw_run
 
     config = tiny_config(observer={"kind": "pca", "pca": {"components": 3}}, seeds=1)
     result = run(tiny_robot(), config, tmp_path, progress=False)

@@ -11,9 +11,9 @@ import pytest
 import litl.robots
 from litl.loop.algorithm import SKIP_REASONS, make_algorithm
 from litl.loop.run import run
-from litl.pictures import draw_run
 from litl.robots.robot import Robot
 from litl.sim import Boundary, SimConfig
+from litl.viz.run_pictures import draw_run
 from tests.loop.tiny import tiny_config, tiny_robot
 
 
