@@ -244,15 +244,14 @@ class LearningConfig(Settings):
       patience: q, epochs without a lower validation loss before stopping (used when
         patience_steps is None).
       learning_rate: Adam step size (0 is allowed: nothing is learned).
-      beta: weight of the KL term in the VAE loss.
       max_steps: if set, also stop after this many SGD steps (minibatches); None: epochs only
         (the paper's). Bounds a phase's cost as the buffer grows.
       patience_steps: if set, early stopping counts SGD steps instead of epochs (stop once the
         epochs since the best validation loss hold this many steps); None: `patience` epochs
         (the paper's). An epoch is one minibatch early in a run and many later.
-      momentum_weight: weight of a linear head from the encoder means to the field's mean over
-        the window (the robot's momentum), trained with the reconstruction (`vae.loss_terms`),
-        so the latents carry the bulk motion linearly; 0: the paper's loss.
+
+    The VAE's own loss weights (the KL term's, the momentum head's) are its settings
+    (``observer.vae.beta``, ``observer.vae.momentum_weight``; here until 2026-12-02).
     """
 
     KEY = "loop.learning"
@@ -260,10 +259,8 @@ class LearningConfig(Settings):
     batch_size: int = 8
     patience: int = 5
     learning_rate: float = 3e-3
-    beta: float = 1.0
     max_steps: int | None = 320
     patience_steps: int | None = 100
-    momentum_weight: float = 0.3
 
     def check(self) -> None:
         self._positive_ints(
@@ -274,7 +271,7 @@ class LearningConfig(Settings):
             "patience_steps",
             optional=("max_steps", "patience_steps"),
         )
-        self._positive_numbers("learning_rate", "beta", "momentum_weight", zero=True)
+        self._positive_numbers("learning_rate", zero=True)
 
 
 @dataclass(frozen=True)

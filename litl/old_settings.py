@@ -35,6 +35,8 @@ MOVED_KEYS = {
     "loop.final_learning_rate_fraction": "loop.safeguards.final_learning_rate_fraction",
     "loop.replay": "loop.replay_buffer",
     "loop.replay_capacity": "loop.buffer_capacity",
+    "loop.learning.beta": "observer.vae.beta",
+    "loop.learning.momentum_weight": "observer.vae.momentum_weight",
 }
 
 
@@ -188,13 +190,23 @@ def moved_message(old: str) -> str:
 
 def moved_changes(section: str, changes: dict[str, Any]) -> dict[str, Any]:
     """`changes` to the section at `section` with moved keys renamed (a warning each): at the
-    top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``."""
+    top, ``loop={"replay": False}`` becomes ``loop={"replay_buffer": False}``.
+
+    Raises:
+      ValueError: a key that moved out of `section` (``loop.learning.beta``, now
+        ``observer.vae.beta``), given to that section: it can only be set from the whole config.
+    """
     prefix = f"{section}." if section else ""
     flat = flatten(changes, prefix)
     if not any(key in MOVED_KEYS for key in flat):
         return changes
     for key in flat:
         if key in MOVED_KEYS:
+            if not MOVED_KEYS[key].startswith(prefix):
+                raise ValueError(
+                    f"{key} is now {MOVED_KEYS[key]}, outside {section}: set it there, from the whole "
+                    f"config (Config.replace or {MOVED_KEYS[key]}=... on the command line)"
+                )
             warnings.warn(moved_message(key), FutureWarning, stacklevel=4)
     return unflatten({MOVED_KEYS.get(key, key)[len(prefix) :]: value for key, value in flat.items()})
 

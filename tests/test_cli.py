@@ -213,7 +213,7 @@ def test_bad_settings_on_the_command_line_exit_with_one_clear_message(tmp_path, 
             "loop.safeguards.update_tolerance=-0.1",
             "^loop.safeguards.update_tolerance=-0.1: must be a number >= 0, or null",
         ),
-        ("loop.learning.momentum_weight=-1", "^loop.learning.momentum_weight=-1.0: must be a number >= 0"),
+        ("observer.vae.momentum_weight=-1", "^observer.vae.momentum_weight=-1.0: must be a number >= 0"),
         (
             "loop.safeguards.final_learning_rate_fraction=1.5",
             "^loop.safeguards.final_learning_rate_fraction=1.5: must lie in \\[0, 1\\]",

@@ -49,6 +49,10 @@ class AutoencoderSettings(Settings):
       field: what it sees of the grid and the replay buffer stores (`GridField`): node
         velocities (the paper's), or velocities weighted by the node's mass relative to a full
         cell, which fades the light boundary nodes whose velocity is mostly numerical noise.
+      beta: weight of the KL term in the VAE's loss (the plain autoencoder has none).
+      momentum_weight: weight of a linear head from the encoder means to the field's mean over
+        the window (the robot's momentum), trained with the reconstruction (`vae.loss_terms`),
+        so the latents carry the bulk motion linearly; 0: the paper's loss.
     """
 
     latent_dim: int = dataclasses.field(default=8, metadata={"short": "r"})  # r in reports' labels
@@ -56,9 +60,12 @@ class AutoencoderSettings(Settings):
     channels: tuple[int, ...] = (8, 16, 32, 32, 64)
     activation: Activation = Activation.elu
     field: GridField = GridField.mass_weighted
+    beta: float = 1.0
+    momentum_weight: float = 0.3
 
     def check(self) -> None:
         self._positive_ints("latent_dim")
+        self._positive_numbers("beta", "momentum_weight", zero=True)
         self._positive_numbers("window", optional=("window",))
         if len(self.channels) != 5 or not all(isinstance(c, int) and c >= 1 for c in self.channels):
             self._invalid("channels", "needs 5 positive integer widths")
@@ -80,8 +87,10 @@ def autoencoder(
     adam = optax.adam(learning.learning_rate)
     learner = Learner(
         window=window,
-        phase=make_learning_phase(model, learning),
-        step=vae.make_train_step(model, adam, learning.beta, learning.momentum_weight),
+        phase=make_learning_phase(
+            model, learning, beta=settings.beta, momentum_weight=settings.momentum_weight
+        ),
+        step=vae.make_train_step(model, adam, settings.beta, settings.momentum_weight),
         optimizer_init=lambda params: adam.init(params.network),
         empty_statistics=lambda dtype, dim: dict(empty_statistics(dtype, learning.max_epochs, dim)),
         records=records,

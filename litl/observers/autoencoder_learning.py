@@ -230,7 +230,12 @@ def _chunks(slots, mask, size):
 
 
 def make_learning_phase(
-    model: ConvAutoencoder, config: LearningConfig, on_epoch: Callable | None = None
+    model: ConvAutoencoder,
+    config: LearningConfig,
+    on_epoch: Callable | None = None,
+    *,
+    beta: float = 1.0,
+    momentum_weight: float = 0.3,
 ) -> LearningPhase:
     """Build `learn(params, buffer, key) -> (best_params, LearningStats)` (a `LearningPhase`).
 
@@ -242,6 +247,8 @@ def make_learning_phase(
     Args:
       model: the observer architecture.
       config: the phase's hyperparameters.
+      beta, momentum_weight: the loss's weights (`vae.loss_terms`; the observer's settings,
+        `observer.vae.beta` and `.momentum_weight`, whose defaults these are).
       on_epoch: if given, `on_epoch(epoch, validation_loss)` (numpy; one entry per seed under
         vmap) is called after every epoch, from inside the compiled phase (a host callback; a
         program holding one cannot be reused from JAX's persistent compilation cache in another
@@ -250,7 +257,7 @@ def make_learning_phase(
     """
     if not isinstance(config, LearningConfig):
         raise ValueError(f"config must be a LearningConfig, got {type(config).__name__}")
-    return LearningPhase(model, config, on_epoch)
+    return LearningPhase(model, config, on_epoch, beta, momentum_weight)
 
 
 def _gather(buffer: ReplayBuffer, slots, mask, dtype):
@@ -269,11 +276,14 @@ class LearningPhase:
       model: the observer architecture.
       config: the phase's hyperparameters.
       on_epoch: called after every epoch with (epoch, validation loss), or None.
+      beta, momentum_weight: the loss's weights (the observer's settings, `vae.loss_terms`).
     """
 
     model: ConvAutoencoder
     config: LearningConfig
     on_epoch: Callable | None = None
+    beta: float = 1.0
+    momentum_weight: float = 0.3
 
     def _report_epoch(self, epoch, validation):
         self.on_epoch(np.asarray(epoch), np.asarray(validation))
@@ -285,8 +295,7 @@ class LearningPhase:
     def losses(self, params, fields, key) -> dict:
         """(B, *grid, d) fields -> dict of (B,) losses, one per snapshot (`vae.loss_terms` each);
         key None: the encoder means, no sampling noise."""
-        config = self.config
-        weights = dict(beta=config.beta, momentum_weight=config.momentum_weight)
+        weights = dict(beta=self.beta, momentum_weight=self.momentum_weight)
         if key is None:
             return jax.vmap(lambda f: loss_terms(self.model, params, f[None], None, **weights))(fields)
         keys = jax.random.split(key, fields.shape[0])

@@ -76,8 +76,9 @@ def test_learning_lowers_validation_loss(learn, params):
     # Before training, with the scale refitted the same way the phase does.
     initial = learning.fit_scale_masked(params, buffer.fields, replay_buffer.valid_mask(buffer))
     np.testing.assert_allclose(best.scale, initial.scale, rtol=1e-6)
-    # The objective the phase trains: the VAE loss with the config's KL and momentum weights.
-    weights = dict(beta=CONFIG.beta, momentum_weight=CONFIG.momentum_weight)
+    # The objective the phase trains: the VAE loss with the phase's KL and momentum weights
+    # (the observer's defaults, `observer.vae.beta` and `.momentum_weight`).
+    weights = dict(beta=1.0, momentum_weight=0.3)
     losses = jax.jit(vae.losses, static_argnums=0, static_argnames=tuple(weights))  # one program
     before = losses(MODEL, initial, validation, **weights)
     after = losses(MODEL, best, validation, **weights)
@@ -174,9 +175,8 @@ def test_vmap_over_seeds_equals_separate_runs(two_params, x64):
         batch_size=4,
         patience=1,
         learning_rate=1e-2,
-        momentum_weight=0.0,
     )
-    learn = learning.make_learning_phase(MODEL, config)
+    learn = learning.make_learning_phase(MODEL, config, momentum_weight=0.0)
     as64 = lambda tree: jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), tree)
     seeds = [as64(p) for p in two_params]
     keys = jax.random.split(jax.random.key(0), 2)
@@ -219,7 +219,7 @@ def test_soft_update(two_params):
         ({"patience": -1}, "patience=-1: must be a positive integer"),
         ({"learning_rate": -1e-3}, "learning_rate=-0.001: must be a number >= 0"),
         ({"learning_rate": float("nan")}, "learning_rate=nan: must be a number >= 0"),
-        ({"beta": "1"}, "beta='1': must be a number >= 0"),
+        ({"learning_rate": "1"}, "learning_rate='1': must be a number >= 0"),
     ],
 )
 def test_bad_config(kwargs, message):
