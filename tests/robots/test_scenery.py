@@ -92,11 +92,11 @@ def test_water_is_a_fluid_as_dense_as_the_robot():
     )
 
 
-def test_a_biped_walks_on_sand_differently_than_on_the_floor():
-    """Open-loop legs on sand: the bed gives under the feet (it is displaced) and the rollout
-    stays finite; the same legs on the floor walk another distance."""
+def test_a_biped_walks_on_sand_and_in_water_differently_than_on_the_floor():
+    """Open-loop legs on sand and in water: the bed gives under the feet (it is displaced) and
+    the rollout stays finite; the same legs on the floor walk another distance."""
     distances = {}
-    for world in ("flat", "sand"):
+    for world in ("flat", "sand", "water"):
         robot = build_robot(compose([f"world={world}", "+scale=smoke"]))
         scene = robot.scene()
         step = jax.jit(make_step(scene.config, scene.body))
@@ -107,10 +107,11 @@ def test_a_biped_walks_on_sand_differently_than_on_the_floor():
         assert np.all(np.isfinite(np.asarray(state.x)))
         own = robot.own(state)
         distances[world] = float(jnp.mean(own.x[:, 0]) - jnp.mean(robot.own(scene.state).x[:, 0]))
-        if world == "sand":
+        if world != "flat":
             bed = np.asarray(state.x[robot.n_particles :]) - np.asarray(scene.state.x[robot.n_particles :])
-            assert np.abs(bed).max() > 0.2 * scene.config.dx  # the feet pushed the sand
+            assert np.abs(bed).max() > 0.2 * scene.config.dx, world  # the feet pushed the bed
     assert distances["sand"] != pytest.approx(distances["flat"], abs=1e-4)
+    assert distances["water"] != pytest.approx(distances["flat"], abs=1e-4)
 
 
 def test_bad_beds_are_refused_before_anything_runs():
