@@ -81,9 +81,8 @@ PART_MODULES = ("observer.module", "controller.module", "world.module", "optimiz
 
 
 def import_named_modules(overrides: Sequence[str]) -> None:
-    """Import the modules that `observer.module=`, `controller.module=` and `world.module=`
-    overrides name (each value of a sweep's list), so the parts they register are known when the
-    config is composed."""
+    """Import the modules that a part's `<part>.module=` override names (`PART_MODULES`; each
+    value of a sweep's list), so the parts they register are known when the config is composed."""
     for override in overrides:
         key, _, value = override.lstrip("+~").partition("=")
         if key in PART_MODULES and value not in ("", "null"):

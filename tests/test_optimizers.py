@@ -4,8 +4,6 @@ line to a run directory the report reads; their starts are litl's; a killed run 
 same records; the old ``baseline=`` spellings; a user's method; bad input."""
 
 import json
-import pathlib
-import re
 import sys
 
 import jax
@@ -14,6 +12,7 @@ import pytest
 
 from litl.app import compose, run_experiment
 from litl.config import SettingsError
+from tests.guide import guide_block
 
 SMOKE = [
     "optimizer=cmaes",
@@ -295,12 +294,7 @@ def test_ppo_is_deterministic_and_refuses_an_observer(ppo_run, tmp_path):
     assert not (tmp_path / "observed" / "run.json").exists()
 
 
-GUIDE = pathlib.Path(__file__).resolve().parents[1] / "docs" / "guide" / "environments.md"
-(ONE_PLUS_ONE_MODULE,) = [
-    block
-    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-    if block.startswith("# my_optimizers.py")
-]
+ONE_PLUS_ONE_MODULE = guide_block("environments.md", "# my_optimizers.py")
 
 
 @pytest.fixture

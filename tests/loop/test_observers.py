@@ -3,7 +3,6 @@
 
 import json
 import pathlib
-import re
 import subprocess
 import sys
 
@@ -14,18 +13,14 @@ import pytest
 
 from litl.config import SettingsError
 from litl.loop import observers
+from tests.guide import guide_block
 from tests.loop.tiny import tiny_config, tiny_robot
 from tests.processes import child_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 # The guide's example module: a fixed random projection of the grid velocity field.
-GUIDE = ROOT / "docs" / "guide" / "observers.md"
-(PROJECTION_MODULE,) = [
-    block
-    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-    if block.startswith("# my_observers.py")
-]
+PROJECTION_MODULE = guide_block("observers.md", "# my_observers.py")
 
 
 def test_builtin_observers_through_the_interface():

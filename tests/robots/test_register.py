@@ -1,20 +1,13 @@
 """A robot of your own: `litl.robots.register`, then `litl.robots.get` and the CLI reach it."""
 
-import pathlib
-import re
-
 import pytest
 
 import litl.robots
 from litl.robots import catalog
+from tests.guide import guide_block
 
 # The guide's example module (`my_robots.py`); tests/test_cli.py runs it through the CLI.
-GUIDE = pathlib.Path(__file__).resolve().parents[2] / "docs" / "guide" / "robots.md"
-(STOOL_MODULE,) = [
-    block
-    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-    if block.startswith("# my_robots.py")
-]
+STOOL_MODULE = guide_block("robots.md", "# my_robots.py")
 
 
 @pytest.fixture

@@ -1,8 +1,6 @@
 """Worlds are registered parts (`litl.worlds.register`): each with its own settings section, a
 user's world from `world.module=`, the old flat spellings translated, bad input refused early."""
 
-import pathlib
-import re
 import sys
 import warnings
 
@@ -13,13 +11,9 @@ from litl.app import build_robot, compose
 from litl.config import SettingsError
 from litl.old_settings import upgrade
 from litl.settings import Settings
+from tests.guide import guide_block
 
-GUIDE = pathlib.Path(__file__).resolve().parents[2] / "docs" / "guide" / "robots.md"
-(LEDGE_MODULE,) = [
-    block
-    for block in re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-    if block.startswith("# my_worlds.py")
-]
+LEDGE_MODULE = guide_block("robots.md", "# my_worlds.py")
 
 
 @pytest.fixture
