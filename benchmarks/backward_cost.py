@@ -32,7 +32,7 @@ def measure(robot_name: str, observer: str, repeats: int, smoke: bool) -> dict:
         overrides.append("controller=sinusoid")
     config = compose(overrides)
     robot = build_robot(config)
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     state = algorithm.init(0)
 
     def loss(controller, design):

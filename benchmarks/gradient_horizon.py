@@ -57,7 +57,7 @@ def state_of_run(run_dir: pathlib.Path, seed_index: int = 0):
     saved = json.loads((run_dir / "run.json").read_text())
     config = from_dict(Config, saved["config"])
     robot = litl.robots.get(saved["robot"], dx=saved["dx"])
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
     counters = {
         "episodes_done": 0,
@@ -80,7 +80,10 @@ def measure(robot, config, state, horizons) -> list[dict]:
     for mode in ("full", "stop"):
         for steps in horizons:
             algorithm = make_algorithm(
-                robot, config.replace(sim={"steps": steps}, controller={"mlp": {"feature_gradient": mode}})
+                robot,
+                config.replace(
+                    sim={"steps": steps}, controller={"mlp": {"feature_gradient": mode}}
+                ).algorithm,
             )
             _, metrics = jax.jit(algorithm.optimize)(state)
             rows.append(

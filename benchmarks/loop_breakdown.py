@@ -60,7 +60,7 @@ def measure(program: str, seeds: int, dx: float, steps: int | None, repeats: int
 
     robot = litl.robots.get("biped", dx=dx)
     config = _config(program, seeds, steps)
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     state = stack_seeds([algorithm.init(s) for s in range(seeds)])
     if program == "rollout_fb":
 

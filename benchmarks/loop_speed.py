@@ -73,7 +73,7 @@ def measure(
     robot = litl.robots.get("biped", dx=dx)
     config = Config.for_method(method).replace(seeds=seeds, sim={"steps": steps})  # stride 20,
     # capacity 500
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     state = stack_seeds([algorithm.init(s) for s in range(seeds)])
     state, _ = jax.jit(jax.vmap(algorithm.bootstrap))(state)
 

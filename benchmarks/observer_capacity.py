@@ -46,7 +46,7 @@ def load_buffer(run_dir: pathlib.Path):
     from litl.loop import make_algorithm
 
     robot, config, state = state_of_run(run_dir)
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     if not algorithm.observer.learned:
         raise SystemExit(
             f"{run_dir}: observer {config.observer.kind!r} does not learn from "

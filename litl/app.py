@@ -204,17 +204,20 @@ def run_experiment(config: Config, run_dir, config_files: dict[str, str] | None 
     a second process on the same directory changes nothing). Returns what the method returns
     (litl's loop: the `litl.loop.RunResult`).
     """
-    from litl.optimizers import OptimizerContext, make
+    from litl.optimizers import make
 
     run_dir = pathlib.Path(run_dir)
     robot = _as_made(build_robot(config), config, run_dir)
     check_observer(config)
-    optimizer = make(config.optimizer, robot, OptimizerContext(config))
+    optimizer = make(config.optimizer, robot, config.context())
     say(
         f"litl: {robot.name} ({robot.layout.n_particles} particles, grid "
         f"{robot.config.grid_shape}), observer {config.observer.kind}, {config.seeds} seed(s), "
         f"{optimizer.budget()} -> {run_dir}"
     )
+    note = litl.worlds.task_note(config.world, robot)
+    if note:
+        say(note)
     note = litl.backend.speed_note()
     if note:
         say(note)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -390,10 +391,50 @@ class OutputConfig(Settings):
 
 
 @dataclass(frozen=True)
+class AlgorithmSettings:
+    """The sections of the config that Algorithm 1's functions read (`litl.loop.make_algorithm`):
+    the observer, the controller, the simulation, the loop and the number of seeds run at once.
+    A compiled program depends on these and on the robot, nothing else (`litl.loop.programs`).
+    ``config.algorithm`` gives them."""
+
+    observer: ObserverConfig = field(default_factory=ObserverConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    sim: RolloutConfig = field(default_factory=RolloutConfig)
+    loop: LoopConfig = field(default_factory=LoopConfig)
+    seeds: int = 1
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What an optimization method reads besides its own settings (``config.context()``):
+
+    Attributes:
+      algorithm: Algorithm 1's settings, which every method optimizes through (the ES and PPO
+        use its simulation, controller and fixed observer; litl's loop all of it).
+      seed: the first seed; the runs use seed, ..., seed + algorithm.seeds - 1 (`seed_ids`).
+      output: what the run draws, logs and shows.
+      record: the settings `run.json` records (`Config.run_settings`, JSON-safe): what a resumed
+        run must match and the reports read.
+    """
+
+    algorithm: AlgorithmSettings
+    seed: int = 0
+    output: OutputConfig = field(default_factory=OutputConfig)
+    record: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def seed_ids(self) -> list[int]:
+        """The seeds of the run, in order."""
+        return [self.seed + s for s in range(self.algorithm.seeds)]
+
+
+@dataclass(frozen=True)
 class Config(Settings):
-    """Everything one run needs. `litl.loop.run(robot, config, ...)` reads observer,
-    controller, sim, loop, seeds and seed; robot and task say which robot the CLI builds,
-    experiment and output what it records and draws.
+    """Everything one run needs: the run's entry (`litl.app.run_experiment`, or
+    `litl.loop.run(robot, config, ...)`) hands each piece its own sections: Algorithm 1 its
+    `algorithm` (observer, controller, sim, loop, seeds), an optimization method its own section
+    and the run's `context()`; robot, world and task say which robot the CLI builds, experiment
+    and output what it records and draws.
 
     Attributes:
       method: the method the settings started from (`Method`: `method=paper|litl`, or
@@ -428,6 +469,16 @@ class Config(Settings):
                 f"the command line does so)",
                 "observer.kind",
             )
+
+    @property
+    def algorithm(self) -> AlgorithmSettings:
+        """The sections Algorithm 1 reads (`AlgorithmSettings`)."""
+        return AlgorithmSettings(self.observer, self.controller, self.sim, self.loop, self.seeds)
+
+    def context(self) -> RunContext:
+        """What an optimization method reads besides its own section (`RunContext`)."""
+        record = json.loads(json.dumps(self.run_settings()))
+        return RunContext(self.algorithm, self.seed, self.output, record)
 
     @classmethod
     def for_method(cls, method: str | Method) -> Config:

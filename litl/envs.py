@@ -240,7 +240,7 @@ def make(
       observation: ``"particles"`` (centroid velocity, actuator strains, clock) or
         ``"observer"`` (`observer`'s features and the clock).
       observer: a `litl.observers.Observer` (``observation="observer"``), e.g.
-        ``litl.loop.make_algorithm(robot, config).observer``.
+        ``litl.loop.make_algorithm(robot, config.algorithm).observer``.
       observer_params: its parameters (Θ; `params.observer`), e.g. a trained run's.
       dx: with a robot's name, the grid spacing to sample it at (default: the robot's own, the
         paper's resolution); a `Robot` is already sampled and takes none.

@@ -104,7 +104,7 @@ def check_gradients(
     robot = build_robot(config)
     check_observer(config)
     with jax.enable_x64(True):
-        algorithm = make_algorithm(robot, config)
+        algorithm = make_algorithm(robot, config.algorithm)
         state = algorithm.init(seed)
         initial = robot.scene(jnp.float64).state
         observer = state.observer

@@ -191,7 +191,7 @@ def _evaluate(run_dir: pathlib.Path, robot, config, seed: int, which: str) -> di
     from litl.loop import load_final, make_algorithm, stack_seeds
 
     seeds = [config.seed + s for s in range(config.seeds)]
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     saved = load_final(run_dir, robot, config, which)
     index = seeds.index(seed)
     template = stack_seeds([algorithm.init(s) for s in seeds])
@@ -272,7 +272,7 @@ def environment(
     robot, config = load_run_config(run_dir)
     seed = chosen_seed(config, seed)
     seeds = [config.seed + s for s in range(config.seeds)]
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     if algorithm.observer.n_features == 0:
         raise ReplayError(f"{run_dir}: its observer ({config.observer.kind}) has no features to observe")
     saved = jax.tree.map(lambda x: x[seeds.index(seed)], load_final(run_dir, robot, config, which))

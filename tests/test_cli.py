@@ -230,7 +230,7 @@ def test_bad_values_are_refused_naming_the_key_as_typed(override, message):
 
     with pytest.raises(ValueError, match=message):
         config = compose([override, "+scale=smoke"])
-        make_algorithm(build_robot(config), config)
+        make_algorithm(build_robot(config), config.algorithm)
 
 
 def test_help_explains_every_group_and_hides_the_schema(tmp_path):

@@ -151,7 +151,7 @@ def test_a_trained_runs_environment_observes_its_observer_and_gives_back_its_tas
     run_experiment(config.replace(output=config.output.replace(pictures=False, animation=False)), run_dir)
     env, params = litl.replay.environment(run_dir, seed=1, hold=1)
     robot = env.robot
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     assert env.observation_space(params).shape == (algorithm.observer.n_features + 2,)
     saved = jax.tree.map(lambda x: x[1], load_final(run_dir, robot, config))
     chex.assert_trees_all_close(params.design, robot.design_space.to_design(saved["design"]), atol=0)

@@ -102,7 +102,7 @@ def test_its_start_is_litls_and_it_is_deterministic(cmaes_run, tmp_path):
     from litl.loop import make_algorithm
 
     config, run_dir, done = cmaes_run
-    algorithm = make_algorithm(build_robot(config), config)
+    algorithm = make_algorithm(build_robot(config), config.algorithm)
     for seed in (0, 1):
         state = algorithm.init(seed)
         expected = float(algorithm.evaluate(state))
@@ -267,7 +267,7 @@ def test_ppos_task_loss_is_minus_the_return_rejax_measures_for_the_mean_action()
     from litl.optimizers.ppo import PPOBaseline, mean_action
 
     config = compose([*PPO_SMOKE, "sim.steps=80"])
-    method = PPOBaseline(build_robot(config), config, config.optimizer.ppo)
+    method = PPOBaseline(build_robot(config), config.context(), config.optimizer.ppo)
     state = method.init()
     _, figures = method.advance(state, 0)
     one = jax.tree.map(lambda x: x[1], state)  # seed 1's initial agent

@@ -51,7 +51,7 @@ def measure(config: Config) -> Measurement:
     from litl.loop import make_algorithm, stack_seeds
 
     robot = build_robot(config)
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     state = stack_seeds([algorithm.init(seed) for seed in range(config.seeds)])
     start = time.perf_counter()
     compiled = jax.jit(jax.vmap(algorithm.optimize)).lower(state).compile()

@@ -11,7 +11,7 @@ knows only that interface.
 from litl.loop.algorithm import Algorithm, LoopState, make_algorithm, seed_slice, stack_seeds
 from litl.loop.observers import Learner, Observer
 from litl.loop.retraining import soft_update
-from litl.loop.run import RunResult, run
+from litl.loop.run import RunResult, run, run_loop
 from litl.loop.run_directory import RunDirectoryError, load_final
 from litl.loop.schedule import LearningSchedule
 from litl.models.replay_buffer import ReplayBuffer, add, clear, replace_with, valid_fields, valid_mask
@@ -31,6 +31,7 @@ __all__ = [
     "make_algorithm",
     "replace_with",
     "run",
+    "run_loop",
     "seed_slice",
     "soft_update",
     "stack_seeds",

@@ -1,6 +1,6 @@
 """Algorithm 1 (learning-in-the-loop co-optimization) as pure functions of one seed's `LoopState`.
 
-`make_algorithm(robot, config)` returns an `Algorithm` whose functions are written for one seed and
+`make_algorithm(robot, config.algorithm)` returns an `Algorithm` whose functions are written for one seed and
 batched over seeds with `jax.vmap` by the caller (`litl.loop.run`):
 
 * `init(seed)`: random controller θ and observer Θ, design φ0, optimizer states, empty buffer.
@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 
 from litl import controllers, observers
-from litl.config import Config, SettingsError
+from litl.config import AlgorithmSettings, SettingsError
 from litl.controllers import ControllerContext
 from litl.loop.optimization import Optimization
 from litl.loop.retraining import Retraining
@@ -128,33 +128,38 @@ def empty_statistics(observer: Observer, dtype, dim: int) -> dict:
     return {**(learner.empty_statistics(dtype, dim) if learner is not None else {}), "update_accepted": True}
 
 
-def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
-    """Build the pure functions of Algorithm 1 for `robot` under `config` (its observer,
-    controller, sim and loop settings).
+def make_algorithm(robot: Robot, settings: AlgorithmSettings, on_epoch=None) -> Algorithm:
+    """Build the pure functions of Algorithm 1 for `robot` under `settings` (its observer,
+    controller, sim and loop sections and the number of seeds: ``config.algorithm``).
 
     `on_epoch(epoch, validation_loss)`, if given, is called from inside every learning phase
     after each epoch (numpy values, one per seed under vmap; `Learner.reporting_epochs`)."""
-    dtype = jnp.dtype(config.sim.dtype)
+    if not isinstance(settings, AlgorithmSettings):
+        raise TypeError(
+            f"make_algorithm takes Algorithm 1's settings (litl.config.AlgorithmSettings), not "
+            f"{type(settings).__name__}: pass config.algorithm"
+        )
+    dtype = jnp.dtype(settings.sim.dtype)
     if dtype == jnp.float64 and not jax.config.jax_enable_x64:  # type: ignore[attr-defined]  # a flag
         raise ValueError("dtype float64 needs 64-bit JAX: wrap the run in jax.enable_x64(True)")
-    steps = config.sim.steps or robot.steps
+    steps = settings.sim.steps or robot.steps
     scene = robot.scene(dtype)
     observer = observers.make(
-        config.observer, robot, ObserverContext(scene.config, dtype, config.loop.learning)
+        settings.observer, robot, ObserverContext(scene.config, dtype, settings.loop.learning)
     )
     if on_epoch is not None and observer.learner is not None:
         observer = dataclasses.replace(observer, learner=observer.learner.reporting_epochs(on_epoch))
-    schedule = LearningSchedule.of(config.loop.schedule, learns=observer.learner is not None)
-    stride = min(config.loop.snapshot_stride, steps)
-    _check_learning_data(config.loop, observer, schedule, steps, stride)
+    schedule = LearningSchedule.of(settings.loop.schedule, learns=observer.learner is not None)
+    stride = min(settings.loop.snapshot_stride, steps)
+    _check_learning_data(settings.loop, observer, schedule, steps, stride)
     simultaneous = schedule is LearningSchedule.simultaneous
     if simultaneous and observer.learner is not None and observer.learner.step is None:
         raise SettingsError(
-            f"observer {config.observer.kind!r} learns in phases only (it has no single SGD step): "
+            f"observer {settings.observer.kind!r} learns in phases only (it has no single SGD step): "
             f"loop.schedule=simultaneous needs one; use loop.schedule=alternating or one_shot",
             "loop.schedule",
         )
-    every = config.sim.checkpoint_every
+    every = settings.sim.checkpoint_every
     if isinstance(every, int) and every % stride:
         raise SettingsError(
             f"sim.checkpoint_every={every} must be a multiple of the snapshot "
@@ -163,17 +168,17 @@ def make_algorithm(robot: Robot, config: Config, on_epoch=None) -> Algorithm:
         )
     simulation = Simulation(
         robot=robot,
-        sim=config.sim,
-        seeds=config.seeds,
+        sim=settings.sim,
+        seeds=settings.seeds,
         dtype=dtype,
         steps=steps,
         stride=stride,
         scene=scene,
         observer=observer,
-        controller=controllers.make(config.controller, robot, ControllerContext(dtype)),
+        controller=controllers.make(settings.controller, robot, ControllerContext(dtype)),
     )
-    optimization = Optimization(simulation, config.loop, config.controller.learning_rate, schedule)
-    retraining = Retraining(simulation, config.loop)
+    optimization = Optimization(simulation, settings.loop, settings.controller.learning_rate, schedule)
+    retraining = Retraining(simulation, settings.loop)
     return Algorithm(
         init=functools.partial(
             _init, simulation.observer, jax.jit(functools.partial(_initial_state, simulation, optimization))

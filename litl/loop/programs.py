@@ -7,11 +7,11 @@ a suite of runs, the tests) would trace and lower every program again: seconds f
 a minute for a large one, most of a short run's time. JAX's persistent compilation cache saves
 only the last step, XLA's compilation.
 
-`programs(robot, config, reports_epochs, seeds_at_once)` returns the same `Programs` (the
+`programs(robot, config.algorithm, reports_epochs, seeds_at_once)` returns the same `Programs` (the
 algorithm and its jit-of-vmap functions) for the same content: the robot's (every particle,
-material value and setting, compared by value: two robots built alike share), the config's
-sections that `make_algorithm` reads (observer, controller, sim, loop but `loop.episodes`, which
-`optimize` takes as a value, and seeds), the registered
+material value and setting, compared by value: two robots built alike share), the settings
+`make_algorithm` reads (`AlgorithmSettings`: observer, controller, sim, loop but `loop.episodes`,
+which `optimize` takes as a value, and seeds), the registered
 observer's and controller's factories, and JAX's 64-bit mode. A key that cannot be made (an
 object litl cannot compare by value, such as a user's task holding an open file) builds afresh.
 
@@ -36,7 +36,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from litl.config import Config
+from litl.config import AlgorithmSettings
 from litl.loop.algorithm import make_algorithm
 from litl.registry import registry
 from litl.robots.robot import Robot
@@ -113,9 +113,9 @@ class Programs:
         return self._reconstruct["jit"]
 
 
-def _build(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Programs:
+def _build(robot: Robot, settings: AlgorithmSettings, reports_epochs: bool, seeds_at_once: int) -> Programs:
     epochs = EpochReports()
-    algorithm = make_algorithm(robot, config, on_epoch=epochs if reports_epochs else None)
+    algorithm = make_algorithm(robot, settings, on_epoch=epochs if reports_epochs else None)
     batched = lambda f: jax.jit(jax.vmap(f))
     learn = jax.jit(functools.partial(algorithm.learn_seeds, at_once=seeds_at_once))
     if algorithm.retrains:
@@ -150,37 +150,30 @@ def cache_size() -> int:
     return size
 
 
-def _key(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Any:
-    # What `make_algorithm` reads, and only that: the observer, the controller, the rollout's and
-    # the loop's settings and the seed count (the run passes its length to `optimize` as a value,
-    # so the number of episodes is not read either).
-    read = (
-        config.observer,
-        config.controller,
-        config.sim,
-        dataclasses.replace(config.loop, episodes=1),
-        config.seeds,
-    )
+def _key(robot: Robot, settings: AlgorithmSettings, reports_epochs: bool, seeds_at_once: int) -> Any:
+    # What `make_algorithm` reads, and only that: its settings, but the number of episodes (the
+    # run passes its length to `optimize` as a value), and the registered factories they name.
+    read = dataclasses.replace(settings, loop=dataclasses.replace(settings.loop, episodes=1))
     factories = (
-        registry("observer").get(config.observer.kind).factory,
-        registry("controller").get(config.controller.kind).factory,
+        registry("observer").get(settings.observer.kind).factory,
+        registry("controller").get(settings.controller.kind).factory,
     )
     return content_key(
         (robot, read, factories, reports_epochs, seeds_at_once, bool(jax.config.jax_enable_x64))  # type: ignore[attr-defined]
     )
 
 
-def programs(robot: Robot, config: Config, reports_epochs: bool, seeds_at_once: int) -> Programs:
-    """The programs of a run of `robot` under `config` (see the module docstring): built, or
+def programs(robot: Robot, settings: AlgorithmSettings, reports_epochs: bool, seeds_at_once: int) -> Programs:
+    """The programs of a run of `robot` under Algorithm 1's `settings` (see the module docstring): built, or
     shared with an earlier run of this process that needed the same ones."""
     size = cache_size()
     try:
-        key = _key(robot, config, reports_epochs, seeds_at_once) if size else None
+        key = _key(robot, settings, reports_epochs, seeds_at_once) if size else None
     except _Unkeyable:
         key = None
     found = _cache.get(key) if key is not None else None
     if found is None:
-        found = _build(robot, config, reports_epochs, seeds_at_once)
+        found = _build(robot, settings, reports_epochs, seeds_at_once)
         if key is not None:
             _cache[key] = found
     else:

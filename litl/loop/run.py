@@ -40,7 +40,7 @@ import jax
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from litl.config import Config, seeds_at_once
+from litl.config import Config, RunContext, seeds_at_once
 from litl.loop.algorithm import SKIP_REASONS, LoopState, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
@@ -65,7 +65,7 @@ from litl.loop.run_directory import load_final as load_final
 from litl.models.replay_buffer import newest
 from litl.observers.interface import every_value
 from litl.robots.robot import Robot
-from litl.worlds import brings_task, put, task_record
+from litl.worlds import put, task_note, task_record
 
 # Iterations skipped in a row after which a seed is reported as failing.
 MANY_SKIPS = 5
@@ -86,9 +86,10 @@ class RunResult:
     metrics: list[dict]
 
 
-def settings(robot: Robot, config: Config, algorithm) -> dict:
-    """What must match for a run directory to be resumed (`run.json`); "observer" says what the
-    report needs to know of the observer (whether it learns, which settings it reads)."""
+def settings(robot: Robot, record: dict, algorithm) -> dict:
+    """What must match for a run directory to be resumed (`run.json`): the robot's, the run's
+    settings as recorded (`record`: `RunContext.record`), and what the report needs to know of the
+    observer ("observer": whether it learns, which settings it reads)."""
     return {
         "robot": robot.name,
         "particles": robot.layout.n_particles,
@@ -99,7 +100,7 @@ def settings(robot: Robot, config: Config, algorithm) -> dict:
         "max_stretch": robot.config.max_stretch,  # the simulator's strain limit (None: none)
         "task": task_record(robot.task),  # the robot's own, or its world's (push_box)
         "steps": algorithm.steps,
-        "config": json.loads(json.dumps(config.run_settings())),
+        "config": json.loads(json.dumps(record)),
         "observer": {"learned": algorithm.observer.learned, "reads": list(algorithm.observer.reads)},
     }
 
@@ -122,19 +123,49 @@ def run(
     stop_after_episodes: int | None = None,
     config_files: dict[str, str] | None = None,
 ) -> RunResult:
-    """Run (or resume) Algorithm 1 for `config.seeds` seeds at once.
+    """Run (or resume) Algorithm 1 for `config.seeds` seeds at once: `robot` put in the config's
+    world (`litl.worlds.put`), then `run_loop` with the config's `context()`.
 
     Args:
       robot: the robot and its default task.
-      config: the run's settings (observer, controller, sim, loop, seeds, seed, and the world
-        the robot is put in, `litl.worlds.put`; robot and task are the `robot`
-        argument's).
+      config: the run's settings (observer, controller, sim, loop, seeds, seed, output, and the
+        world the robot is put in; robot and task are the `robot` argument's).
+      run_dir, progress, stop_after_episodes, config_files: as `run_loop` takes them.
+
+    Returns:
+      `run_loop`'s `RunResult`.
+    """
+    # A logger that cannot be used fails before anything is built or any directory is made, so
+    # the mistake leaves no empty run directory (nor a lock file) behind.
+    check_kind(config.output.logger)
+    placed = put(robot, config.world)
+    note = task_note(config.world, placed)
+    if note:
+        say(note)
+    return run_loop(placed, config.context(), run_dir, progress, stop_after_episodes, config_files)
+
+
+def run_loop(
+    robot: Robot,
+    context: RunContext,
+    run_dir,
+    progress: bool = True,
+    stop_after_episodes: int | None = None,
+    config_files: dict[str, str] | None = None,
+) -> RunResult:
+    """Run (or resume) Algorithm 1 under `context.algorithm` for its seeds at once, `robot`
+    already in its world: what `optimizer=litl` runs.
+
+    Args:
+      robot: the robot in its world, with its task.
+      context: the run's settings besides the method's own (`litl.config.RunContext`).
       run_dir: directory for metrics, checkpoints and final parameters (created if needed).
       progress: show a progress bar on stderr.
       stop_after_episodes: return after this many episodes in total (the run can be resumed
-        later); None runs all `config.loop.episodes`.
+        later); None runs all `loop.episodes`.
       config_files: {relative path: text} written into `run_dir` once the directory is locked
-        and its settings agree with `config` (the CLI records its composed Hydra config so).
+        and its settings agree with `context.record` (the CLI records its composed Hydra config
+        so).
 
     Returns:
       A `RunResult`. Each metrics record has: seed, episode, iteration (within the episode),
@@ -149,38 +180,31 @@ def run(
       `litl.loop.algorithm`: whether the iteration went back to the last accepted iterate, and
       the fraction of a full step taken), and wall_s.
     """
-    # A logger that cannot be used fails before anything is built or any directory is made, so
-    # the mistake leaves no empty run directory (nor a lock file) behind.
-    check_kind(config.output.logger)
-    placed = put(robot, config.world)
-    if brings_task(config.world) and placed.task != robot.task:
-        say(
-            f"litl: world={config.world.kind} brings its own task, in place of the robot's: "
-            f"{task_record(placed.task)} (run.json records it as 'task')"
-        )
-    robot = placed
+    check_kind(context.output.logger)
+    algorithm_settings, loop = context.algorithm, context.algorithm.loop
     run_dir = pathlib.Path(run_dir)
-    bar = Progress(config.loop.episodes, config.loop.iterations, enabled=progress)
+    bar = Progress(loop.episodes, loop.iterations, enabled=progress)
     # Learning epochs are reported only where a progress display shows them (a compiled phase
     # without the host callback can come from JAX's persistent cache). The programs are shared
     # with an earlier run of this process that needed the same ones (`litl.loop.programs`).
-    shared = programs(robot, config, progress, seeds_at_once(config.loop, config.seeds))
-    wanted = settings(robot, config, shared.algorithm)
+    at_once = seeds_at_once(loop, algorithm_settings.seeds)
+    shared = programs(robot, algorithm_settings, progress, at_once)
+    wanted = settings(robot, context.record, shared.algorithm)
     run_dir.mkdir(parents=True, exist_ok=True)
     shared.epochs.to = bar.on_epoch if progress else None
     try:
         with RunDirectoryLock(run_dir):
             files = config_files or {}
-            return _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes, files)
+            return _run_locked(context, run_dir, shared, wanted, bar, stop_after_episodes, files)
     finally:
         shared.epochs.to = None
 
 
-def _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes, config_files):
+def _run_locked(context, run_dir, shared, wanted, bar, stop_after_episodes, config_files):
     claim(run_dir, wanted, config_files)
-    loop, algorithm = config.loop, shared.algorithm
-    seeds = [config.seed + s for s in range(config.seeds)]
-    logger = make_logger(config.output.logger, run_dir, seeds, loop.iterations, wanted)
+    loop, algorithm = context.algorithm.loop, shared.algorithm
+    seeds = context.seed_ids
+    logger = make_logger(context.output.logger, run_dir, seeds, loop.iterations, wanted)
     shell = _Shell(run_dir, shared, seeds, logger)
     try:
         state, counters = shell.start()
@@ -194,7 +218,7 @@ def _run_locked(robot, config, run_dir, shared, wanted, bar, stop_after_episodes
                     state = shell.learning_phase(state, episode)
                 shell.log_pictures(state, (episode + 1) * loop.iterations)
             else:
-                before = np.full(config.seeds, np.nan)
+                before = np.full(len(seeds), np.nan)
             shell.checkpoints.save(
                 episode + 1,
                 state,

@@ -262,7 +262,7 @@ def load_final(run_dir, robot: Robot, config: Config, which: str = "final") -> d
     """
     if which not in ("final", "best"):
         raise ValueError(f"which must be 'final' or 'best', got {which!r}")
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
     abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, jax.tree.map(np.asarray, parameters(template)))
     with ocp.StandardCheckpointer() as loader:

@@ -19,9 +19,8 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
-from litl.config import Config, SettingsError
+from litl.config import RunContext, SettingsError
 from litl.loop.algorithm import make_algorithm
-from litl.optimizers.interface import OptimizerContext
 from litl.optimizers.rounds import Cost, RoundsOptimizer, seed_keys
 from litl.robots.robot import Robot
 from litl.settings import Settings
@@ -102,17 +101,18 @@ class EvolutionStrategy:
     """`litl.optimizers.rounds.Method` for cmaes, sep_cmaes and openai_es: a round is one
     generation."""
 
-    def __init__(self, robot: Robot, config: Config, kind: str, settings: EvolutionSettings):
-        self.algorithm = algorithm = make_algorithm(robot, config)
+    def __init__(self, robot: Robot, context: RunContext, kind: str, settings: EvolutionSettings):
+        self.algorithm = algorithm = make_algorithm(robot, context.algorithm)
         if algorithm.observer.learned:
             raise SettingsError(
                 f"optimizer={kind} optimizes the controller and design on fixed features, "
-                f"and observer {config.observer.kind!r} learns; use observer=kmeans or observer=none",
+                f"and observer {context.algorithm.observer.kind!r} learns; use observer=kmeans or "
+                f"observer=none",
                 "observer.kind",
             )
         self.name = kind
         self.rounds = settings.generations
-        self.seeds = [config.seed + s for s in range(config.seeds)]
+        self.seeds = context.seed_ids
         self._per_generation = settings.population + 1
         starts = [algorithm.init(seed) for seed in self.seeds]
         # The design in units of its range (0: E_min, 1: E_max), so that one step size suits it
@@ -171,10 +171,10 @@ class EvolutionStrategy:
 def evolution_strategy(kind: str):
     """The factory of `optimizer=<kind>` (cmaes, sep_cmaes or openai_es)."""
 
-    def factory(robot: Robot, settings: EvolutionSettings, context: OptimizerContext) -> RoundsOptimizer:
-        method = EvolutionStrategy(robot, context.config, kind, settings)
+    def factory(robot: Robot, settings: EvolutionSettings, context: RunContext) -> RoundsOptimizer:
+        method = EvolutionStrategy(robot, context, kind, settings)
         budget = f"{kind}, {settings.generations} generations of {settings.population}"
-        return RoundsOptimizer(method, robot, context.config, budget)
+        return RoundsOptimizer(method, robot, context.record, budget)
 
     factory.__name__ = factory.__qualname__ = kind
     return factory

@@ -4,34 +4,25 @@ An optimization method (``optimizer=<name>``) is what changes the controller and
 litl's loop (Algorithm 1, `litl.optimizers.loop`), or an evolution strategy or PPO
 (`litl.optimizers.evolution`, `litl.optimizers.ppo`), each registered with its own settings
 dataclass (its section of the config, ``optimizer.<name>``). Its factory is
-``factory(robot, settings, context) -> Optimizer``; an `Optimizer` says what it will spend
-(`budget`) and runs, or resumes, in a run directory (`run`), writing a litl run directory there
-(`litl.loop.run_directory`) that reports, replays and the claims read alike.
+``factory(robot, settings, context) -> Optimizer``, `context` the run's `litl.config.RunContext`
+(Algorithm 1's settings, the seeds, the output, what run.json records), never the whole config;
+an `Optimizer` says what it will spend (`budget`) and runs, or resumes, in a run directory
+(`run`), writing a litl run directory there (`litl.loop.run_directory`) that reports, replays
+and the claims read alike.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
+from litl.config import RunContext
 from litl.registry import Registry, registry
 from litl.settings import Settings
 
-if TYPE_CHECKING:
-    from litl.config import Config
-
-
-@dataclass(frozen=True)
-class OptimizerContext:
-    """What an optimization method reads besides its own settings.
-
-    Attributes:
-      config: the run's settings: the observer, the controller, the simulation, the seeds (and,
-        for litl's loop, its `loop` section), which every method optimizes through.
-    """
-
-    config: Config
+# What a method reads besides its own settings (`litl.config.RunContext`), under the name the
+# methods written before it held Algorithm 1's settings apart (they read `context.config`) import.
+OptimizerContext = RunContext
 
 
 @runtime_checkable

@@ -1,4 +1,4 @@
-"""litl's loop (Algorithm 1, `litl.loop.run`) as an optimization method: ``optimizer=litl``, the
+"""litl's loop (Algorithm 1, `litl.loop.run_loop`) as an optimization method: ``optimizer=litl``, the
 default. Its settings are the config's `loop` section (episodes, iterations, the learning phases,
 the safeguards), which the `method=` presets set."""
 
@@ -7,37 +7,38 @@ from __future__ import annotations
 import pathlib
 from typing import Any
 
-from litl.loop import run
+from litl.config import RunContext
+from litl.loop import run_loop
 from litl.loop.progress import say
 from litl.loop.run_directory import RunDirectoryLock
-from litl.optimizers.interface import OptimizerContext
 from litl.robots.robot import Robot
 from litl.stuck import seed_ends, shown
 
 
 class LoopOptimizer:
-    """Algorithm 1 for `config.seeds` seeds at once; then the run's pictures and animation
-    (`config.output`) and the final task loss per seed, a stuck seed said."""
+    """Algorithm 1 for the context's seeds at once; then the run's pictures and animation
+    (`context.output`) and the final task loss per seed, a stuck seed said."""
 
     name = "litl"
 
-    def __init__(self, robot: Robot, context: OptimizerContext):
-        self.robot, self.config = robot, context.config
+    def __init__(self, robot: Robot, context: RunContext):
+        self.robot, self.context = robot, context
 
     def budget(self) -> str:
-        return f"{self.config.loop.episodes} x {self.config.loop.iterations} iterations"
+        loop = self.context.algorithm.loop
+        return f"{loop.episodes} x {loop.iterations} iterations"
 
     def run(self, run_dir: Any, progress: bool, config_files: dict[str, str]) -> Any:
-        robot, config, run_dir = self.robot, self.config, pathlib.Path(run_dir)
-        output = config.output
+        robot, context, run_dir = self.robot, self.context, pathlib.Path(run_dir)
+        output = context.output
         with RunDirectoryLock(run_dir):  # held through the pictures too
-            result = run(robot, config, run_dir, progress=progress, config_files=config_files)
+            result = run_loop(robot, context, run_dir, progress=progress, config_files=config_files)
             if output.pictures or output.animation:
                 from litl.viz.run_pictures import draw_run
 
                 draw_run(
                     robot,
-                    config,
+                    context,
                     result,
                     run_dir,
                     animation=output.animation,
@@ -45,7 +46,7 @@ class LoopOptimizer:
                     stride=output.animation_stride,
                     progress=progress,
                 )
-        say_final_losses(result.metrics, [config.seed + s for s in range(config.seeds)], run_dir)
+        say_final_losses(result.metrics, context.seed_ids, run_dir)
         return result
 
 
@@ -69,6 +70,6 @@ def say_final_losses(metrics: list[dict], seeds: list[int], run_dir: pathlib.Pat
             )
 
 
-def litl_loop(robot: Robot, settings: None, context: OptimizerContext) -> LoopOptimizer:
+def litl_loop(robot: Robot, settings: None, context: RunContext) -> LoopOptimizer:
     """`optimizer=litl`: litl's loop (it reads the config's `loop` section)."""
     return LoopOptimizer(robot, context)

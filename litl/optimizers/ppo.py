@@ -24,8 +24,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from litl.config import Config, SettingsError
-from litl.optimizers.interface import OptimizerContext
+from litl.config import RunContext, SettingsError
 from litl.optimizers.rounds import Cost, RoundsOptimizer, seed_keys
 from litl.robots.robot import Robot
 from litl.settings import Settings, number
@@ -87,7 +86,7 @@ class PPOBaseline:
 
     algorithm: Any = None  # the loop's algorithm for this robot and config: what run.json records
 
-    def __init__(self, robot: Robot, config: Config, settings: PPOSettings):
+    def __init__(self, robot: Robot, context: RunContext, settings: PPOSettings):
         import litl.envs
 
         try:
@@ -98,17 +97,18 @@ class PPOBaseline:
                 f'pip install -e ".[rl]"',
                 "optimizer.kind",
             ) from error
-        if config.observer.kind != "none":
+        sim, observer = context.algorithm.sim, context.algorithm.observer
+        if observer.kind != "none":
             raise SettingsError(
                 f"optimizer=ppo observes the environment's particle summary, not an observer's features; "
-                f"observer={config.observer.kind} is not used by it (drop the override, or set "
+                f"observer={observer.kind} is not used by it (drop the override, or set "
                 f"observer=none)",
                 "observer.kind",
             )
         self.name = "ppo"
-        self.seeds = [config.seed + s for s in range(config.seeds)]
-        env, params = litl.envs.make(robot, hold=settings.hold, dtype=jnp.dtype(config.sim.dtype.value))
-        steps = config.sim.steps or robot.steps
+        self.seeds = context.seed_ids
+        env, params = litl.envs.make(robot, hold=settings.hold, dtype=jnp.dtype(sim.dtype.value))
+        steps = sim.steps or robot.steps
         params = params.replace(max_steps=max(steps // settings.hold, 1))
         self.env, self.env_params = env, params
         batch = settings.envs * settings.rollout
@@ -191,11 +191,11 @@ class PPOBaseline:
         return Cost(steps, steps / self._robot_steps)
 
 
-def ppo(robot: Robot, settings: PPOSettings, context: OptimizerContext) -> RoundsOptimizer:
+def ppo(robot: Robot, settings: PPOSettings, context: RunContext) -> RoundsOptimizer:
     """`optimizer=ppo`: rejax's PPO on `litl.envs`, controlling only."""
     from litl.loop.algorithm import make_algorithm
 
-    method = PPOBaseline(robot, context.config, settings)
-    method.algorithm = make_algorithm(robot, context.config)  # what run.json records of the run
+    method = PPOBaseline(robot, context, settings)
+    method.algorithm = make_algorithm(robot, context.algorithm)  # what run.json records of the run
     budget = f"ppo, {settings.timesteps} environment steps of {settings.hold} simulation steps"
-    return RoundsOptimizer(method, robot, context.config, budget)
+    return RoundsOptimizer(method, robot, context.record, budget)

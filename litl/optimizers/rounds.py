@@ -146,8 +146,9 @@ class RoundsOptimizer:
     """A `Method` as a `litl.optimizers.Optimizer`: runs its rounds in a run directory and says
     the final task loss per seed."""
 
-    def __init__(self, method: Method, robot: Any, config: Any, budget: str):
-        self.method, self.robot, self.config, self._budget = method, robot, config, budget
+    def __init__(self, method: Method, robot: Any, record: dict, budget: str):
+        """`record`: the settings run.json records (`litl.config.RunContext.record`)."""
+        self.method, self.robot, self.record, self._budget = method, robot, record, budget
         self.name = method.name
 
     def budget(self) -> str:
@@ -156,7 +157,7 @@ class RoundsOptimizer:
     def run(self, run_dir: Any, progress: bool, config_files: dict[str, str]) -> dict:
         from litl.loop.run import settings
 
-        wanted = settings(self.robot, self.config, self.method.algorithm)
+        wanted = settings(self.robot, self.record, self.method.algorithm)
         method = self.method
         done = run_rounds(method, method.seeds, pathlib.Path(run_dir), wanted, config_files, progress)
         losses = ", ".join(

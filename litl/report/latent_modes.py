@@ -145,7 +145,7 @@ def _load(run_dir: pathlib.Path, seed: int | None) -> tuple[Any, Any, np.ndarray
     robot, config = load_run_config(run_dir)
     seed = chosen_seed(config, seed)
     seeds = [config.seed + s for s in range(config.seeds)]
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     if algorithm.model is None:
         raise LatentModesError(f"{run_dir}: its observer ({config.observer.kind}) learns no latent space")
     checkpoints = Checkpoints(run_dir / "checkpoints")

@@ -30,7 +30,7 @@ from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
 
 def draw_run(
     robot,
-    config,
+    context,
     result,
     run_dir,
     animation: bool = True,
@@ -38,19 +38,20 @@ def draw_run(
     stride: int = 10,
     progress: bool = False,
 ) -> list[pathlib.Path]:
-    """Write the run's pictures into `run_dir`; return the files written. With `progress`, say
-    on stderr what is being drawn (the animation's rollout and the saliency take a while)."""
+    """Write the run's pictures into `run_dir`; return the files written. `context` is the run's
+    (`litl.config.RunContext`: ``config.context()``). With `progress`, say on stderr what is
+    being drawn (the animation's rollout and the saliency take a while)."""
     run_dir = pathlib.Path(run_dir)
     status = say if progress else (lambda message: None)
     written: list[pathlib.Path] = []
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, context.algorithm)
     # Only the animation needs a rollout; without it the pictures use seed 0 (whose parameters
     # are finite: failed iterations never update them).
     chosen: int | None = 0
     recording: tuple[np.ndarray, ...] | None = None  # (positions, actuation[, scenery positions])
     if animation:
         status("pictures: simulating the final robot for robot.gif")
-        chosen, recording = _first_healthy_seed(robot, algorithm, result.state, config, stride)
+        chosen, recording = _first_healthy_seed(robot, algorithm, result.state, context.seed_ids, stride)
     state = seed_slice(result.state, chosen if chosen is not None else 0)
     if pictures:
         status("pictures: the report (task_loss.png, recon_loss.png, table1, summary.md)")
@@ -63,7 +64,9 @@ def draw_run(
             status(
                 "pictures: the observer's representation (clusters, or snapshots, latent sweeps and saliency)"
             )
-            written += _representation(robot, algorithm, state, run_dir, stride=config.loop.snapshot_stride)
+            written += _representation(
+                robot, algorithm, state, run_dir, stride=context.algorithm.loop.snapshot_stride
+            )
     if animation and recording is not None:
         status("pictures: robot.gif")
         positions, actuation, *scenery = recording
@@ -82,10 +85,10 @@ def draw_run(
     return written
 
 
-def _first_healthy_seed(robot, algorithm, states, config, stride):
-    """(index, (positions, actuation)) of the first seed whose final rollout stays finite."""
+def _first_healthy_seed(robot, algorithm, states, seeds, stride):
+    """(index, (positions, actuation)) of the first of `seeds` whose final rollout stays finite."""
     steps = algorithm.steps
-    for index in range(config.seeds):
+    for index, seed in enumerate(seeds):
         state = seed_slice(states, index)
         try:
             recording = record_rollout(
@@ -100,11 +103,11 @@ def _first_healthy_seed(robot, algorithm, states, config, stride):
                 scenery=bool(robot.scenery),
             )
         except SimulationError as error:
-            say(f"pictures: skipping seed {config.seed + index}: {error}")
+            say(f"pictures: skipping seed {seed}: {error}")
             continue
         if all(np.all(np.isfinite(a)) for a in recording):
             return index, recording
-        say(f"pictures: skipping seed {config.seed + index}: its rollout is not finite")
+        say(f"pictures: skipping seed {seed}: its rollout is not finite")
     say("pictures: no seed has a finite final rollout; no animation or representation pictures were drawn")
     return None, None
 

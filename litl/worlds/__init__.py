@@ -15,7 +15,7 @@ chosen with ``world=<name> world.module=<module>`` (docs/guide/robots.md shows o
 
 from litl.worlds.bumps import BumpsSettings, bumps
 from litl.worlds.flat import flat
-from litl.worlds.interface import WORLDS, brings_task, names, put, register, task_record
+from litl.worlds.interface import WORLDS, brings_task, names, put, register, task_note, task_record
 from litl.worlds.push_box import PushBoxSettings, push_box
 from litl.worlds.sand import SandSettings, sand
 from litl.worlds.slope import SlopeSettings, slope
@@ -31,4 +31,4 @@ if "flat" not in WORLDS.names():  # a module reloaded (importlib.reload) registe
     register("water", water, WaterSettings)
     register("push_box", push_box, PushBoxSettings, task=True)
 
-__all__ = ["brings_task", "names", "put", "register", "task_record"]
+__all__ = ["brings_task", "names", "put", "register", "task_note", "task_record"]

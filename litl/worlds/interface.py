@@ -63,6 +63,17 @@ def brings_task(world: Any) -> bool:
     return bool(WORLDS.get(name).traits.get("task", False))
 
 
+def task_note(world: Any, placed: Robot) -> str | None:
+    """What a run says when `world` brings its own task (`placed`: the robot put in it), or None."""
+    if not brings_task(world):
+        return None
+    kind = world if isinstance(world, str) else world.kind
+    return (
+        f"litl: world={kind} brings its own task, in place of the robot's: "
+        f"{task_record(placed.task)} (run.json records it as 'task')"
+    )
+
+
 def task_record(task: Task | None) -> list[dict[str, Any]]:
     """`task` as run.json records it: each term's kind and fields (none: no task)."""
     terms = task.terms if task is not None else ()

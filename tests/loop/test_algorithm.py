@@ -21,7 +21,7 @@ from tests.loop.tiny import tiny_config, tiny_robot
 )
 def test_the_schedule_is_the_settings_unless_the_observer_does_not_learn(observer, schedule, expected):
     algorithm = make_algorithm(
-        tiny_robot(), tiny_config(observer={"kind": observer}, loop={"schedule": schedule})
+        tiny_robot(), tiny_config(observer={"kind": observer}, loop={"schedule": schedule}).algorithm
     )
     assert algorithm.schedule is expected
     assert algorithm.retrains == (expected is LearningSchedule.alternating)
@@ -40,7 +40,7 @@ def test_the_schedule_is_the_settings_unless_the_observer_does_not_learn(observe
     ],
 )
 def test_the_checkpoint_plan_is_known_before_anything_is_traced(observer, sim, expected):
-    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": observer}, sim=sim))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": observer}, sim=sim).algorithm)
     plan = algorithm.checkpoint_plan()
     assert (plan.checkpoint_every, plan.carry_bytes, plan.per_step_bytes, plan.budget_bytes) == expected
     assert plan.steps == algorithm.steps == 40

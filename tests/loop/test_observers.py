@@ -57,7 +57,7 @@ def test_each_observer_says_which_grid_field_it_reads_and_the_loop_follows_it():
         context = observers.ObserverContext(robot.config, jnp.float32, config.loop.learning)
         observer = observers.make(config.observer, robot, context)
         assert observer.field == expected.get(name), name
-        plain = make_algorithm(robot, config).field is grid_velocity
+        plain = make_algorithm(robot, config.algorithm).field is grid_velocity
         assert plain == (expected.get(name) != GridField.mass_weighted), name
 
 
@@ -340,7 +340,7 @@ def test_a_learning_observer_defined_here_runs_through_the_loop_and_the_pictures
     # Its statistics are repeated in every iteration's record, as written out by its learner.
     assert all("mean_speed" in r for r in result.metrics)
     assert float(result.state.observer[0]) != 1.0  # it learned a scale
-    written = draw_run(tiny_robot(), config, result, tmp_path, animation=False)
+    written = draw_run(tiny_robot(), config.context(), result, tmp_path, animation=False)
     assert (tmp_path / "mean_speed.txt") in written
 
 
@@ -355,6 +355,6 @@ def test_pca_runs_through_the_loop_report_and_pictures(tmp_path):
     phases = [json.loads(line) for line in (tmp_path / "learning.jsonl").read_text().splitlines()]
     assert len(phases) == 3 and all(0.0 <= p["recon_explained"] <= 1.0 for p in phases[1:])
     assert all(r["recon_loss_val"] is not None for r in result.metrics)
-    written = draw_run(tiny_robot(), config, result, tmp_path, animation=False)
+    written = draw_run(tiny_robot(), config.context(), result, tmp_path, animation=False)
     for name in ("pca.png", "recon_loss.png", "task_loss.png"):
         assert (tmp_path / name) in written, name

@@ -223,7 +223,8 @@ def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
     times = jnp.linspace(0.0, CLOCK_PERIOD, 5)
     for period, clocked in ((CLOCK_PERIOD, True), (None, False)):
         algorithm = make_algorithm(
-            tiny_robot(), tiny_config(observer={"kind": "kmeans"}, controller={"mlp": {"period": period}})
+            tiny_robot(),
+            tiny_config(observer={"kind": "kmeans"}, controller={"mlp": {"period": period}}).algorithm,
         )
         params = algorithm.init(0).controller
         features = jnp.full((algorithm.n_features,), 0.3)  # a robot whose state holds still
@@ -234,7 +235,9 @@ def test_the_closed_loop_controller_reads_a_clock_unless_switched_off():
     # The controller takes the configured input gain on the features (0.2 by default).
     for scale in (None, 1.0):
         changes = {} if scale is None else {"controller": {"mlp": {"feature_scale": scale}}}
-        algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}, **changes))
+        algorithm = make_algorithm(
+            tiny_robot(), tiny_config(observer={"kind": "kmeans"}, **changes).algorithm
+        )
         assert algorithm.controller.feature_scale == (0.2 if scale is None else scale)
 
 
@@ -245,7 +248,7 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
 
     robot = litl.robots.get("biped", dx=1 / 64)
     algorithm = make_algorithm(
-        robot, tiny_config(seeds=1, sim={"steps": 20}, observer={"vae": {"window": 0.5}})
+        robot, tiny_config(seeds=1, sim={"steps": 20}, observer={"vae": {"window": 0.5}}).algorithm
     )
     assert algorithm.model.grid_shape == (32, 32)
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))

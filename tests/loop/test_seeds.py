@@ -28,7 +28,7 @@ def bootstrapped():
     """The tiny float64 run's algorithm, and seeds 3 and 4 after the bootstrap (a rollout and a
     learning phase), vmapped and jitted: the first step of both tests below, computed once."""
     with jax.enable_x64(True):
-        algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}))
+        algorithm = make_algorithm(tiny_robot(), tiny_config(sim={"steps": 40, "dtype": "float64"}).algorithm)
         states, stats = jax.jit(jax.vmap(algorithm.bootstrap))(
             stack_seeds([algorithm.init(s) for s in SEEDS])
         )

@@ -11,7 +11,7 @@ from tests.loop.tiny import tiny_config, tiny_robot
 
 def test_buffer_holds_the_configured_field_and_the_particles_mean_velocity():
     robot = tiny_robot()
-    algorithm = make_algorithm(robot, tiny_config(observer={"vae": {"field": "mass_weighted"}}))
+    algorithm = make_algorithm(robot, tiny_config(observer={"vae": {"field": "mass_weighted"}}).algorithm)
     state = algorithm.init(0)
     after, _ = jax.jit(algorithm.bootstrap)(state)
     count = int(after.buffer.count)
@@ -34,6 +34,6 @@ def test_buffer_holds_the_configured_field_and_the_particles_mean_velocity():
         after.buffer.velocities[:count], trajectory.observations[9::10], rtol=1e-3, atol=5e-5
     )  # float32 differences of centroids
     # Mass-weighted: the light boundary nodes read less than momentum / mass would.
-    velocity = make_algorithm(robot, tiny_config(observer={"vae": {"field": "velocity"}}))
+    velocity = make_algorithm(robot, tiny_config(observer={"vae": {"field": "velocity"}}).algorithm)
     plain, _ = jax.jit(velocity.bootstrap)(velocity.init(0))
     assert np.abs(after.buffer.fields[:count]).sum() < np.abs(plain.buffer.fields[:count]).sum()

@@ -25,7 +25,7 @@ def _same(a, b):
 
 
 def test_a_blown_up_iteration_updates_nothing_and_says_why():
-    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}).algorithm)
     state = algorithm.init(0)
     # A design far outside the bounds (and the time step's range) blows the rollout up.
     blown = state.replace(design=jnp.full_like(state.design, 1e7))
@@ -53,7 +53,7 @@ def test_a_robot_the_untrained_controller_leaves_at_rest_keeps_a_usable_observer
     # empty field outputs zero, so the bootstrap rollout records nothing but zero fields. The
     # observer's input scale must not be fitted to them (it would drop to its floor, 1e-6, and
     # the first gradient through the features would be ~1e8 or not finite).
-    algorithm = make_algorithm(litl.robots.get("arm", dx=1 / 32), tiny_config("paper"))
+    algorithm = make_algorithm(litl.robots.get("arm", dx=1 / 32), tiny_config("paper").algorithm)
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     assert int(state.buffer.count) > 0 and float(jnp.abs(state.buffer.fields).max()) == 0.0
     assert float(state.observer.scale) == 1.0
@@ -63,7 +63,7 @@ def test_a_robot_the_untrained_controller_leaves_at_rest_keeps_a_usable_observer
 
 
 def test_a_healthy_iteration_keeps_the_parameters_of_its_rollout_as_best():
-    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}))
+    algorithm = make_algorithm(tiny_robot(), tiny_config(observer={"kind": "kmeans"}).algorithm)
     state = algorithm.init(0)
     after, metrics = jax.jit(algorithm.optimize)(state)
     assert int(metrics["skipped"]) == 0 and int(after.consecutive_skips) == 0
@@ -100,7 +100,7 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
     assert [r["consecutive_skips"] for r in result.metrics if r["seed"] == 0] == [1, 2, 3, 4, 5, 6]
     best = json.loads((tmp_path / "best.json").read_text())
     assert best == [{"seed": 0, "task_loss": None, "step": -1}, {"seed": 1, "task_loss": None, "step": -1}]
-    written = draw_run(_falling_robot(), config, result, tmp_path)
+    written = draw_run(_falling_robot(), config.context(), result, tmp_path)
     err = capsys.readouterr().err
     assert "pictures: skipping seed 0" in err and "pictures: skipping seed 1" in err
     assert "no seed has a finite final rollout" in err
@@ -110,7 +110,9 @@ def test_a_run_whose_seeds_always_fail_records_skips_and_still_draws(tmp_path, c
 def test_an_observer_update_that_breaks_the_controller_is_refused():
     """loop.update_tolerance: the stepped observer is simulated with the current controller; a
     worse (here: non-finite) result keeps the old observer, and the phase says so."""
-    algorithm = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": 0.0}}))
+    algorithm = make_algorithm(
+        tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": 0.0}}).algorithm
+    )
     pieces = algorithm.learn.__self__
     state, _ = jax.jit(algorithm.bootstrap)(algorithm.init(0))
     assert bool(state.stats["update_accepted"])  # the bootstrap is not checked
@@ -144,7 +146,9 @@ def test_an_observer_update_that_breaks_the_controller_is_refused():
         np.testing.assert_allclose(mine, bootstrapped, rtol=1e-5, atol=1e-7)
     assert learn._cache_size() == 1
     # None: the paper's loop, never checked.
-    unchecked = make_algorithm(tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": None}}))
+    unchecked = make_algorithm(
+        tiny_robot(), tiny_config(loop={"safeguards": {"update_tolerance": None}}).algorithm
+    )
     _, stats = jax.jit(unchecked.learn)(state)
     assert bool(stats["update_accepted"])
 
@@ -158,7 +162,7 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
             observer={"kind": "kmeans"},
             # constant step sizes: every retaken step is exactly half the last
             loop={"safeguards": {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}},
-        ),
+        ).algorithm,
     )
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
@@ -184,7 +188,9 @@ def test_a_much_worse_iteration_steps_back_and_halves_the_step():
     # Off (None, the paper's loop): never.
     plain = make_algorithm(
         tiny_robot(),
-        tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}),
+        tiny_config(
+            observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}
+        ).algorithm,
     )
     _, metrics = jax.jit(plain.optimize)(
         plain.init(0).replace(anchor=state.anchor.replace(task_loss=jnp.asarray(-1e6, jnp.float32)))
@@ -198,7 +204,7 @@ def test_a_failed_iteration_retakes_the_last_step_at_half_its_size():
     (the paper's loop) it changes nothing, as before."""
     settings = {"step_back_tolerance": 0.2, "final_learning_rate_fraction": 1.0}
     algorithm = make_algorithm(
-        tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": settings})
+        tiny_robot(), tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": settings}).algorithm
     )
     optimize = jax.jit(algorithm.optimize)
     start = algorithm.init(0)
@@ -222,7 +228,9 @@ def test_a_failed_iteration_retakes_the_last_step_at_half_its_size():
     # Off: nothing changes.
     plain = make_algorithm(
         tiny_robot(),
-        tiny_config(observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}),
+        tiny_config(
+            observer={"kind": "kmeans"}, loop={"safeguards": {"step_back_tolerance": None}}
+        ).algorithm,
     )
     first = jax.jit(plain.optimize)(plain.init(0))[0]
     blown = first.replace(design=jnp.full_like(first.design, 1e7))
@@ -241,7 +249,7 @@ def test_step_sizes_decay_on_a_cosine_to_the_final_fraction():
             tiny_robot(),
             tiny_config(
                 observer={"kind": "kmeans"}, loop={"safeguards": {"final_learning_rate_fraction": fraction}}
-            ),
+            ).algorithm,
         )
         start = algorithm.init(0).replace(iteration=jnp.asarray(iteration, jnp.int32))
         after, _ = jax.jit(algorithm.optimize)(start)

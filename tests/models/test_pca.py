@@ -91,4 +91,6 @@ def test_bad_settings_are_clear_errors():
         make(config.observer, robot, ObserverContext(robot.config, jnp.float32, config.loop.learning))
     # It learns in phases only: the simultaneous ablation needs a single SGD step.
     with pytest.raises(SettingsError, match="learns in phases only.*loop.schedule=simultaneous"):
-        make_algorithm(robot, tiny_config(observer={"kind": "pca"}, loop={"schedule": "simultaneous"}))
+        make_algorithm(
+            robot, tiny_config(observer={"kind": "pca"}, loop={"schedule": "simultaneous"}).algorithm
+        )

@@ -36,7 +36,7 @@ def main(out, first_seed, seeds, variants):
     variants = [v for v in variants if not v.startswith("+")]
     config = compose([*base, f"seeds={seeds}", f"seed={first_seed}"])
     robot = build_robot(config)
-    algorithm = make_algorithm(robot, config)
+    algorithm = make_algorithm(robot, config.algorithm)
     seed_list = list(range(first_seed, first_seed + seeds))
     start = time.perf_counter()
     states = stack_seeds([algorithm.init(s) for s in seed_list])
@@ -47,7 +47,7 @@ def main(out, first_seed, seeds, variants):
         variant_config = compose(
             [*BASE, f"seeds={seeds}", f"seed={first_seed}", *filter(None, overrides.split(","))]
         )
-        variant_algorithm = make_algorithm(robot, variant_config)
+        variant_algorithm = make_algorithm(robot, variant_config.algorithm)
         phase = variant_algorithm.observer.learner.phase
 
         def one(state, phase=phase):
