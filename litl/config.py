@@ -497,9 +497,10 @@ class Config(Settings):
             for key in keys:
                 tree[section].pop(key)
         names = ("method", "observer", "controller", "sim", "loop", "seeds", "seed")
-        world = ("world",) if self.world.kind != "flat" else ()
+        # The default world and method are left out: runs from before either existed recorded none.
+        world = ("world",) if self.world.kind != WorldConfig().kind else ()
         tree["world"] = self.world.record()
-        optimizer = ("optimizer",) if self.optimizer.kind != "litl" else ()
+        optimizer = ("optimizer",) if self.optimizer.kind != OptimizerConfig().kind else ()
         tree["optimizer"] = self.optimizer.record()
         return {name: tree[name] for name in names + world + optimizer}
 

@@ -62,15 +62,16 @@ def curve(run: Run, backward_cost: float, label: str | None = None) -> Curve:
     """The run's task loss against simulated steps per seed (see the module docstring)."""
     import json
 
-    litl_run = str(run.config.get("optimizer.kind", "litl")) == "litl"
+    # A method that runs in rounds counts its simulated steps in its records; litl's loop does not.
+    counted = any("simulated_steps" in r for r in run.records)
     final_file = run.path / "final.json"
     steps, loss, wall, seeds = [], [], [], run.seeds
     for seed in seeds:
         rows = sorted((r for r in run.records if int(r["seed"]) == seed), key=lambda r: int(r["step"]))
-        if litl_run:
-            steps.append(litl_steps(run, rows, backward_cost, final_file.exists()))
-        else:
+        if counted:
             steps.append(np.array([float(r["simulated_steps"]) for r in rows]))
+        else:
+            steps.append(litl_steps(run, rows, backward_cost, final_file.exists()))
         loss.append(np.array([float(r["task_loss"]) for r in rows]))
         wall.append(np.array([float(r.get("wall_s", math.nan)) for r in rows]))
     by_seed = {}

@@ -136,10 +136,12 @@ class Run:
         """What heads the run's label: an optimization method's name other than litl's loop
         (``"cmaes"``), else what feeds the controller: the observer, or an open-loop controller's
         name (``"sinusoid"``)."""
+        from litl.parts import OptimizerConfig
         from litl.registry import registry
 
-        optimizer = str(self.config.get("optimizer.kind", "litl"))
-        if optimizer != "litl":
+        default = OptimizerConfig().kind
+        optimizer = str(self.config.get("optimizer.kind", default))
+        if optimizer != default:
             return optimizer
         entry = registry("controller").find(self.controller)
         open_loop = entry.traits.get("open_loop", False) if entry is not None else self.controller != "mlp"

@@ -73,6 +73,9 @@ def check_actuation(body: Body, design: Design) -> float:
     """
     actuator = np.asarray(body.actuator)
     strength = np.abs(np.asarray(design.actuator_strength, np.float64))
+    if design.actuator_weights is not None:
+        # Placed actuators may reach any particle: each is checked at the strongest one.
+        actuator = np.full(actuator.shape, int(np.argmax(strength)) if strength.size else -1)
     if not (actuator >= 0).any() or not strength.size:
         return 0.0
     mu, lam = (np.asarray(p, np.float64) for p in design.lame())
@@ -137,6 +140,20 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
             f"design.actuator_strength must have one entry per actuator ({m}), "
             f"got shape {np.shape(design.actuator_strength)}"
         )
+    weights = design.actuator_weights
+    if weights is not None:
+        if np.shape(weights) != (n, m):
+            raise SimConfigError(
+                f"design.actuator_weights must have shape (n_particles, n_actuators) = {(n, m)}, "
+                f"got {np.shape(weights)}"
+            )
+        values = np.asarray(weights, np.float64)
+        if not np.all(np.isfinite(values)) or values.min() < 0 or values.sum(-1).max() > 1 + 1e-5:
+            raise SimConfigError(
+                "design.actuator_weights must be finite, >= 0, with every particle's weights "
+                "summing to at most 1 (a softmax over the actuators and a passive channel gives "
+                "such weights)"
+            )
     actuator = np.asarray(body.actuator)
     if actuator.size and (actuator.min() < -1 or actuator.max() >= m):
         raise SimConfigError(

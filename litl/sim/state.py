@@ -52,12 +52,18 @@ class Design:
       poisson_ratio: (n,) Poisson ratio per particle, in (-1, 0.5).
       density: (n,) mass per unit of particle volume.
       actuator_strength: (m,) active stress per unit actuation for each actuator.
+      actuator_weights: (n, m) how much of each actuator's drive each particle takes, rows
+        summing to at most 1 (the rest passive): placed muscles, which co-design can move. Each
+        actuator pulls along its own fiber, so a particle shared by two takes the sum of their
+        active stresses, each weighted. None: `Body.actuator` says each particle's one actuator
+        (the one-hot weights, computed so).
     """
 
     youngs_modulus: jnp.ndarray
     poisson_ratio: jnp.ndarray
     density: jnp.ndarray
     actuator_strength: jnp.ndarray
+    actuator_weights: jnp.ndarray | None = None
 
     @classmethod
     def uniform(cls, n, youngs_modulus, poisson_ratio, density, actuator_strength, dtype=jnp.float32):

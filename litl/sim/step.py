@@ -22,7 +22,8 @@ StressFn = Callable[[list, jnp.ndarray, jnp.ndarray], list]
 
 
 def particle_activation(body: Body, actuation, design: Design):
-    """Per-particle active stress magnitude (n,) and fiber direction (n, d).
+    """Per-particle active stress magnitude (n,) and fiber direction (n, d) of a body whose
+    particles each belong to one actuator (`Body.actuator`).
 
     Args:
       body: the body layout.
@@ -33,6 +34,24 @@ def particle_activation(body: Body, actuation, design: Design):
     # every consumer and re-evaluates it per element, while a dot is computed once.
     one_hot = (body.actuator[:, None] == jnp.arange(body.n_actuators)).astype(actuation.dtype)
     return one_hot @ (design.actuator_strength * actuation), one_hot @ body.fiber
+
+
+def active_stress(F: linalg.Mat, body: Body, actuation, design: Design) -> linalg.Mat:
+    """The actuators' Kirchhoff stress on every particle: `a (F f) ⊗ (F f)` along its actuator's
+    fiber f, or, where the design places the actuators (`Design.actuator_weights` (n, m)), the sum
+    over actuators k of `w_k a_k (F f_k) ⊗ (F f_k)`; the same value for one-hot weights."""
+    if design.actuator_weights is None:
+        activation, fiber = particle_activation(body, actuation, design)
+        return actuation_stress(F, activation, linalg.split_vec(fiber))
+    drive = design.actuator_weights * (design.actuator_strength * actuation)  # (n, m)
+    dim = len(F)
+    tau = None
+    for k in range(body.n_actuators):
+        direction = [body.fiber[k, j] for j in range(dim)]
+        pulled = [sum(F[i][j] * direction[j] for j in range(dim)) for i in range(dim)]  # F f_k
+        term = linalg.scale(linalg.outer(pulled, pulled), drive[:, k])
+        tau = term if tau is None else linalg.add(tau, term)
+    return tau if tau is not None else linalg.scale(F, jnp.zeros_like(F[0][0]))
 
 
 def _grid_velocity(config: SimConfig, grid, particle_mass):
@@ -157,8 +176,7 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
                     # Read by every stress component: clamped once, not once per reader (XLA:CPU).
                     F = linalg.materialize(F, field_token)
             tau = stress_model(F, mu, lam)
-        activation, fiber = particle_activation(body, actuation, design)
-        tau = linalg.add(tau, actuation_stress(F, activation, linalg.split_vec(fiber)))
+        tau = linalg.add(tau, active_stress(F, body, actuation, design))
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).
         stress_scale = (-dt * 4.0 / dx**2) * body.volume
         affine = linalg.add(linalg.scale(tau, stress_scale), linalg.scale(state.C, mass))
