@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from typing import Literal
 
 import litl.backend
+import litl.designs
 import litl.robots
 import litl.worlds
 from litl.config import (
@@ -77,7 +78,7 @@ def refuse_old_section_keys(overrides: Sequence[str]) -> None:
             raise SettingsError(sectioned_message(key, kinds[head]), key)
 
 
-PART_MODULES = ("observer.module", "controller.module", "world.module", "optimizer.module")
+PART_MODULES = ("observer.module", "controller.module", "world.module", "optimizer.module", "design.module")
 
 
 def import_named_modules(overrides: Sequence[str]) -> None:
@@ -140,7 +141,7 @@ def build_robot(config: Config) -> Robot:
     if kind != TaskKind.default:
         measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
         robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
-    return litl.worlds.put(robot, config.world)
+    return litl.designs.apply(litl.worlds.put(robot, config.world), config.design)
 
 
 def _with_material(robot: Robot, material: MaterialConfig) -> Robot:

@@ -30,7 +30,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
-from litl.parts import ControllerConfig, ObserverConfig, OptimizerConfig, WorldConfig
+from litl.parts import ControllerConfig, DesignConfig, ObserverConfig, OptimizerConfig, WorldConfig
 from litl.registry import registry
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
 from litl.trees import flatten, unflatten
@@ -446,6 +446,7 @@ class Config(Settings):
     method: Method = Method.litl
     robot: RobotConfig = field(default_factory=RobotConfig)
     world: WorldConfig = field(default_factory=WorldConfig)
+    design: DesignConfig = field(default_factory=DesignConfig)
     task: TaskConfig = field(default_factory=TaskConfig)
     observer: ObserverConfig = field(default_factory=ObserverConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
@@ -502,7 +503,9 @@ class Config(Settings):
         tree["world"] = self.world.record()
         optimizer = ("optimizer",) if self.optimizer.kind != OptimizerConfig().kind else ()
         tree["optimizer"] = self.optimizer.record()
-        return {name: tree[name] for name in names + world + optimizer}
+        design = ("design",) if self.design.kind != DesignConfig().kind else ()
+        tree["design"] = self.design.record()
+        return {name: tree[name] for name in names + world + optimizer + design}
 
 
 # Settings that change how much memory and time a run takes, not what it computes (at most its

@@ -66,7 +66,7 @@ def register_with_hydra() -> None:
     # of its group too: observer=<name>.
     from importlib import resources
 
-    for part in ("observer", "controller", "world", "optimizer"):
+    for part in ("observer", "controller", "world", "optimizer", "design"):
         files = resources.files("litl.conf") / part
         for name in registry(part).names():
             if not (files / f"{name}.yaml").is_file():

@@ -245,3 +245,23 @@ class OptimizerConfig(PartConfig):
     kind: str = "litl"
     module: str | None = None
     sections: tuple[tuple[str, Any], ...] = ()
+
+
+@dataclass(frozen=True)
+class DesignConfig(PartConfig):
+    """What co-design changes about the robot's body (a registered design space,
+    `litl.designs`) and its settings.
+
+    Attributes:
+      kind: modulus (one Young's modulus per design region, the paper's), actuators (where the
+        muscles are, per particle), or your own.
+      module: a module to import first, which registers design spaces of your own
+        (`litl.designs.register`); then kind=<its name>.
+      sections: every registered design space's settings (``design.actuators``, ...).
+    """
+
+    KEY = "design"
+    PART = "design"
+    kind: str = "modulus"
+    module: str | None = None
+    sections: tuple[tuple[str, Any], ...] = ()

@@ -196,13 +196,14 @@ _REGISTRIES: dict[str, Registry] = {}
 
 
 def registry(part: str) -> Registry:
-    """The registry of `part` (``"observer"``, ``"controller"``, ``"world"`` or
-    ``"optimizer"``), its built-ins registered."""
+    """The registry of `part` (``"observer"``, ``"controller"``, ``"world"``, ``"optimizer"``
+    or ``"design"``), its built-ins registered."""
     packages = {
         "observer": "litl.observers",
         "controller": "litl.controllers",
         "world": "litl.worlds",
         "optimizer": "litl.optimizers",
+        "design": "litl.designs",
     }
     if part not in _REGISTRIES:
         _REGISTRIES[part] = Registry(part, packages[part])

@@ -145,7 +145,7 @@ def replay(
         "task_loss": evaluated["task_loss"],
         "components": evaluated["components"],
         "recorded_loss": recorded_loss(run_dir, which, seed),
-        "design": np.asarray(one["design"]).tolist(),
+        "design": np.asarray(space.modulus(one["design"])).tolist(),
         "design_bounds": list(space.bounds),
         # How close the robot came to leaving the grid, per face (recorded frames only).
         "escape_margin_cells": escape_margins(robot.config, positions),
@@ -218,13 +218,13 @@ def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, ga
 
     algorithm, one, steps = evaluated["algorithm"], evaluated["one"], evaluated["steps"]
     space = robot.design_space
-    design = np.asarray(one["design"])
+    design = np.asarray(space.modulus(one["design"]))  # the Young's modulus per region
     positions, actuation, *scenery = record_rollout(
         robot,
         algorithm.policy,
         (one["controller"], one["observer"]),
         steps,
-        design=space.to_design(design),
+        design=space.to_design(one["design"]),
         stride=min(stride, steps),
         check=False,
         field=algorithm.field,

@@ -58,6 +58,7 @@ ENVIRONMENTS = "import jax, jax.numpy as jnp\nimport litl.envs"
 WORLD = "import dataclasses, math\nimport litl.robots"
 SCENERY = "import dataclasses\nimport numpy as np\nimport litl.robots\nfrom litl.robots.scenery"
 PPO_BLOCK = "import jax\nfrom rejax import PPO"
+DESIGNS = "import litl.designs\nimport litl.robots"
 # Indented in a list item of simulating.md; it goes on from the SIMULATING block's namespace.
 MATERIALS = "  import dataclasses\n  from litl.sim.materials"
 
@@ -83,6 +84,7 @@ def test_every_block_is_checked():
                 SCENERY,
                 MATERIALS,
                 PPO_BLOCK,
+                DESIGNS,
             )
             if block.startswith(s)
         ]
@@ -217,3 +219,11 @@ def test_world_block_builds_a_robot_with_its_colliders():
     robot = namespace["robot"]
     (collider,) = robot.config.boundary.colliders
     assert collider.contact.friction == 0.6 and len(collider.shape.shapes) == 2
+
+
+def test_designs_block_places_the_bipeds_muscles():
+    namespace = run_block(DESIGNS)
+    design, robot = namespace["design"], namespace["robot"]
+    assert design.actuator_weights.shape == (robot.layout.n_particles, robot.n_actuators)
+    summary = {k: float(v) for k, v in namespace["space"].summary(namespace["phi"]).items()}
+    assert summary["placement/moved"] == 0.0 and 0 < summary["placement/actuated"] < 1

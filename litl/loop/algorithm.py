@@ -105,6 +105,9 @@ class Algorithm:
     # alone (nothing is compiled or run); raises `litl.sim.memory.MemoryBudgetError` where the
     # rollout would.
     checkpoint_plan: Callable[[], CheckpointPlan]
+    # The robot's design space (`Robot.design_space`): what φ is, and `modulus(φ)`, the Young's
+    # modulus per region the metrics record.
+    design_space: Any = None
 
     @property
     def n_features(self) -> int:
@@ -197,6 +200,7 @@ def make_algorithm(robot: Robot, settings: AlgorithmSettings, on_epoch=None) -> 
         field=simulation.field,
         simulate=simulation.simulate,
         checkpoint_plan=functools.cache(functools.partial(_checkpoint_plan, simulation, optimization)),
+        design_space=robot.design_space,
     )
 
 
@@ -276,7 +280,7 @@ def _initial_state(
             controller_optimizer=optimization.controller_adam.init(controller_params),
             design_optimizer=optimization.design_adam.init(design),
             controller_grad=jax.tree.map(jnp.zeros_like, controller_params),
-            design_grad=jnp.zeros_like(design),
+            design_grad=jax.tree.map(jnp.zeros_like, design),
             task_loss=jnp.full((), jnp.inf, dtype),
             step_scale=jnp.ones((), dtype),
         ),

@@ -106,12 +106,15 @@ class Optimization:
             iteration=state.iteration + 1,
             consecutive_skips=jnp.where(healthy, 0, state.consecutive_skips + 1),
         )
+        space = self.simulation.robot.design_space
+        modulus = space.modulus(state.design)
         metrics = {
             "task_loss": total,
             **{f"task/{name}": value for name, value in components.items()},
-            "design_mean": jnp.mean(state.design),
-            "design_min": jnp.min(state.design),
-            "design_max": jnp.max(state.design),
+            "design_mean": jnp.mean(modulus),
+            "design_min": jnp.min(modulus),
+            "design_max": jnp.max(modulus),
+            **space.summary(state.design),
             "controller_grad_norm": controller_grad_norm,
             "design_grad_norm": design_grad_norm,
             "skipped": reason,

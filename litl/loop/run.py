@@ -41,6 +41,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from litl.config import Config, RunContext, seeds_at_once
+from litl.designs import apply as apply_design
 from litl.loop.algorithm import SKIP_REASONS, LoopState, seed_slice, stack_seeds
 from litl.loop.checkpoint import Checkpoints
 from litl.loop.loggers import NoLogger, RunLogger, check_kind, make_logger, snapshot_strip
@@ -124,7 +125,8 @@ def run(
     config_files: dict[str, str] | None = None,
 ) -> RunResult:
     """Run (or resume) Algorithm 1 for `config.seeds` seeds at once: `robot` put in the config's
-    world (`litl.worlds.put`), then `run_loop` with the config's `context()`.
+    world (`litl.worlds.put`) with its design space (`litl.designs.apply`), then `run_loop` with
+    the config's `context()`.
 
     Args:
       robot: the robot and its default task.
@@ -138,7 +140,7 @@ def run(
     # A logger that cannot be used fails before anything is built or any directory is made, so
     # the mistake leaves no empty run directory (nor a lock file) behind.
     check_kind(config.output.logger)
-    placed = put(robot, config.world)
+    placed = apply_design(put(robot, config.world), config.design)
     note = task_note(config.world, placed)
     if note:
         say(note)
@@ -326,7 +328,7 @@ class _Shell:
                 new = iteration_records(
                     metrics,
                     stats,
-                    np.asarray(state.design),
+                    np.asarray(jax.vmap(self.algorithm.design_space.modulus)(state.design)),
                     self.seeds,
                     (episode, iteration, step),
                     before if iteration < 2 else None,

@@ -110,6 +110,13 @@ class EvolutionStrategy:
                 f"observer=none",
                 "observer.kind",
             )
+        if robot.design is not None:
+            raise SettingsError(
+                f"optimizer={kind} searches the Young's modulus per region (design=modulus), not "
+                f"the design space {type(robot.design_space).__name__}; use design=modulus, or "
+                f"optimizer=litl for the others",
+                "design.kind",
+            )
         self.name = kind
         self.rounds = settings.generations
         self.seeds = context.seed_ids

@@ -144,6 +144,14 @@ class DesignSpace:
         low, high = self.bounds
         return jnp.clip(design_variables, low, high)
 
+    def modulus(self, design_variables: ArrayLike) -> jnp.ndarray:
+        """(R,) the Young's modulus per region that φ gives: φ itself."""
+        return jnp.asarray(design_variables)
+
+    def summary(self, design_variables: ArrayLike) -> dict[str, jnp.ndarray]:
+        """Per-iteration figures of φ beyond its modulus: none."""
+        return {}
+
     def to_design(self, design_variables: ArrayLike | None = None, dtype: DTypeLike | None = None) -> Design:
         """The simulator's per-particle `Design` for φ (R,) (None: φ0); jittable and
         differentiable in φ."""

@@ -8,6 +8,7 @@ region), their bounds and their map to the simulator's per-particle `Design`.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax.numpy as jnp
 import numpy as np
@@ -56,6 +57,8 @@ class Robot:
         material first and theirs after it (`litl.worlds` builds both).
       observe_scenery: whether observers see the whole scene's grid field; False (the default):
         only the nodes the robot's particles reach (`litl.sim.Body.observed`).
+      design: the design space co-design works in (`litl.designs`: ``design=actuators``), or
+        None: the robot's own, one Young's modulus per region (`DesignSpace`).
     """
 
     name: str
@@ -67,6 +70,7 @@ class Robot:
     description: str = ""
     scenery: tuple[Scenery, ...] = ()
     observe_scenery: bool = False
+    design: Any = None
 
     def __post_init__(self):
         if self.layout.dim != self.config.dim:
@@ -176,14 +180,17 @@ class Robot:
 
     @property
     def design_space(self) -> DesignSpace:
-        """The co-design variables φ: bounds, initial value, projection, map to `Design`."""
-        return DesignSpace(
+        """The co-design variables φ: bounds, initial value, projection, map to `Design`: the
+        robot's own (one Young's modulus per region), or its `design` space built around it (so
+        that a robot given another material or world afterwards keeps its design space)."""
+        own = DesignSpace(
             region=self.layout.region,
             n_regions=self.n_regions,
             n_actuators=self.n_actuators,
             material=self.material,
             scenery=self.scenery,
         )
+        return own if self.design is None else self.design.around(own)
 
     def with_material(self, material: Material) -> Robot:
         """This robot with another `Material`; dt follows the stiffest allowed design

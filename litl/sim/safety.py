@@ -97,6 +97,24 @@ def check_actuation(body: Body, design: Design) -> float:
     return ratio
 
 
+def _check_actuator_weights(weights, n: int, m: int) -> None:
+    """Placed actuators (`Design.actuator_weights`): (n, m), finite, >= 0, rows at most 1."""
+    if weights is None:
+        return
+    if np.shape(weights) != (n, m):
+        raise SimConfigError(
+            f"design.actuator_weights must have shape (n_particles, n_actuators) = {(n, m)}, "
+            f"got {np.shape(weights)}"
+        )
+    values = np.asarray(weights, np.float64)
+    if not np.all(np.isfinite(values)) or values.min() < 0 or values.sum(-1).max() > 1 + 1e-5:
+        raise SimConfigError(
+            "design.actuator_weights must be finite, >= 0, with every particle's weights "
+            "summing to at most 1 (a softmax over the actuators and a passive channel gives "
+            "such weights)"
+        )
+
+
 def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> None:
     """Check that body, design and state agree with each other and with the config."""
     dim = config.dim
@@ -140,20 +158,7 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
             f"design.actuator_strength must have one entry per actuator ({m}), "
             f"got shape {np.shape(design.actuator_strength)}"
         )
-    weights = design.actuator_weights
-    if weights is not None:
-        if np.shape(weights) != (n, m):
-            raise SimConfigError(
-                f"design.actuator_weights must have shape (n_particles, n_actuators) = {(n, m)}, "
-                f"got {np.shape(weights)}"
-            )
-        values = np.asarray(weights, np.float64)
-        if not np.all(np.isfinite(values)) or values.min() < 0 or values.sum(-1).max() > 1 + 1e-5:
-            raise SimConfigError(
-                "design.actuator_weights must be finite, >= 0, with every particle's weights "
-                "summing to at most 1 (a softmax over the actuators and a passive channel gives "
-                "such weights)"
-            )
+    _check_actuator_weights(design.actuator_weights, n, m)
     actuator = np.asarray(body.actuator)
     if actuator.size and (actuator.min() < -1 or actuator.max() >= m):
         raise SimConfigError(
