@@ -115,6 +115,8 @@ def build_robot(config: Config) -> Robot:
     configured world."""
     name, module = config.robot.name, config.robot.module
     import_user_module("robot.module", module, "litl.robots.register")
+    if config.robot.image is not None:
+        return _placed(_drawn_robot(config), config)
     if name not in litl.robots.names():
         hint = (
             f"; robot.module={module!r} registered no robot of that name"
@@ -127,7 +129,21 @@ def build_robot(config: Config) -> Robot:
     dx = config.robot.dx
     if dx is None:
         dx = RESOLUTIONS[config.robot.resolution][litl.robots.catalog.ROBOTS[name].dim]
-    robot = litl.robots.get(name, dx=dx)
+    return _placed(litl.robots.get(name, dx=dx), config)
+
+
+def _drawn_robot(config: Config) -> Robot:
+    """The robot drawn in `robot.image` (a 2D drawing: `litl.robots.catalog.from_image`)."""
+    dx = config.robot.dx if config.robot.dx is not None else RESOLUTIONS[config.robot.resolution][2]
+    dx = 1 / 128 if dx is None else dx  # resolution=paper: the paper's 2D grid
+    try:
+        return litl.robots.catalog.from_image(config.robot.image, dx, width=config.robot.width)
+    except litl.robots.LayoutError as error:
+        raise SettingsError(f"robot.image={config.robot.image}: {error}", "robot.image") from None
+
+
+def _placed(robot: Robot, config: Config) -> Robot:
+    """`robot` with the configured material, task, world and design space."""
     if config.robot.material.changes():
         robot = _with_material(robot, config.robot.material)
     kind = config.task.kind

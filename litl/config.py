@@ -176,6 +176,10 @@ class RobotConfig(Settings):
       module: a module to import first, which registers robots of your own
         (`litl.robots.register`); then name=<its name>.
       material: changes to the robot's material and design bounds (`MaterialConfig`).
+      image: a 2D robot drawn as a PNG instead of a registered one (`litl.robots.catalog.
+        from_image`: its legend beside it, ``<image>.json``, or litl's palette); a co-designed
+        robot's drawing (`python -m litl.replay` writes one) loads back so.
+      width: the drawn robot's length along x (None: the legend's note ``_width``).
     """
 
     KEY = "robot"
@@ -184,6 +188,12 @@ class RobotConfig(Settings):
     resolution: Resolution = Resolution.demo
     module: str | None = None
     material: MaterialConfig = field(default_factory=MaterialConfig)
+    image: str | None = None
+    width: float | None = None
+
+    def check(self) -> None:
+        if self.width is not None and not (number(self.width) and self.width > 0):
+            self._invalid("width", "must be a length > 0 (of the unit domain), e.g. 0.3")
 
 
 @dataclass(frozen=True)

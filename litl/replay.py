@@ -11,6 +11,9 @@ them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
 * the animation (.gif, or .mp4 with ffmpeg): particles coloured by actuation, or by the learned
   Young's modulus per region (`--color stiffness`); 3D robots in perspective;
 * `<name>_design.png`: the robot at rest coloured by its learned stiffness, with the bounds;
+* `<name>_robot.png` and `<name>_robot.json` (a 2D robot whose actuators were co-designed,
+  ``design=actuators``): the co-designed body as a drawing in litl's palette with its legend,
+  which ``python -m litl robot.image=<name>_robot.png`` loads back;
 * `<name>.json`: seed, steps, the task loss and its components, the loss the run recorded for
   the same parameters (`final.json` or `best.json`), which the replay reproduces at the run's
   own step count, and how close the robot came to leaving the grid at each face
@@ -64,7 +67,9 @@ def load_run_config(run_dir: pathlib.Path):
         config = from_dict(Config, upgrade(cast("dict[str, Any]", plain)))
         robot = build_robot(config)
     else:  # a Python API run: the robot by name, dx and material
+        import litl.designs
         import litl.robots
+        import litl.worlds
         from litl.robots import Material
 
         config = from_dict(Config, upgrade(saved["config"]))
@@ -72,6 +77,8 @@ def load_run_config(run_dir: pathlib.Path):
         material = Material(**saved.get("material", {}))
         if material != robot.material:
             robot = robot.with_material(material)
+        # In its world and with its design space, as `litl.loop.run` put it.
+        robot = litl.designs.apply(litl.worlds.put(robot, config.world), config.design)
     # The run's strain limit as it simulated; runs from before the limit (no key) had none.
     limit = saved.get("max_stretch")
     if robot.config.max_stretch != limit:
@@ -245,6 +252,15 @@ def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, ga
         gait_picture = out.with_name(out.stem + "_gait.png")
         _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt, path=gait_picture)
         files.append(str(gait_picture))
+    placed = getattr(space, "placed_layout", None)
+    if placed is not None and robot.dim == 2:
+        from litl.robots.image import write_png
+
+        # The co-designed body as a drawing that robot.image= loads back (its legend beside it).
+        drawing, legend = write_png(
+            placed(one["design"], robot.layout), out.with_name(out.stem + "_robot.png")
+        )
+        files += [str(drawing), str(legend)]
     return files, positions, gait_numbers
 
 

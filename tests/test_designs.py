@@ -9,8 +9,13 @@ import numpy as np
 import pytest
 
 import litl.designs
+import litl.robots
+from litl.app import build_robot, compose
 from litl.config import Config, SettingsError
 from litl.loop.run import run
+from litl.replay import replay
+from litl.robots.catalog import from_image
+from litl.robots.image import write_png
 from tests.loop.tiny import tiny_config, tiny_robot
 
 
@@ -71,21 +76,66 @@ def test_a_channel_a_particle_has_left_can_come_back():
     assert float(space.weights({"placement": logits})[:, 0].mean()) > 0.5
 
 
-def test_co_designing_the_placement_moves_the_muscles_and_records_it(tmp_path):
+def same_body(a, b, spacing):
+    """Whether two 2D layouts hold the same particles (on the same lattice, up to a shift) with
+    the same actuators, regions, pins and groups."""
+    if len(a.positions) != len(b.positions) or sorted(a.groups) != sorted(b.groups):
+        return False
+    cells = lambda layout: np.rint((layout.positions - layout.positions.min(0)) / spacing).astype(int)
+    order_a, order_b = (np.lexsort((cells(x)[:, 1], cells(x)[:, 0])) for x in (a, b))
+    if not np.array_equal(cells(a)[order_a], cells(b)[order_b]):
+        return False
+    rank_a, rank_b = np.argsort(order_a), np.argsort(order_b)
+    return all(
+        np.array_equal(np.asarray(getattr(a, key))[order_a], np.asarray(getattr(b, key))[order_b])
+        for key in ("actuator", "region", "pinned")
+    ) and all(np.array_equal(np.sort(rank_a[a.groups[g]]), np.sort(rank_b[b.groups[g]])) for g in a.groups)
+
+
+@pytest.mark.parametrize("name", ["biped", "rhino", "arm"])
+def test_a_2d_robot_drawn_as_a_png_loads_back_to_the_same_body(name, tmp_path):
+    robot = litl.robots.get(name, dx=1 / 32)
+    png, legend = write_png(robot.layout, tmp_path / f"{name}.png")
+    back = from_image(png, dx=1 / 32)
+    spacing = json.loads(legend.read_text())["_spacing"]
+    assert same_body(robot.layout, back.layout, spacing)
+    np.testing.assert_allclose(back.layout.fiber, robot.layout.fiber)
+
+
+def test_co_designing_the_placement_moves_the_muscles_and_the_replay_draws_a_body_that_loads_back(tmp_path):
     config = tiny_config(
         observer={"kind": "kmeans"}, design={"kind": "actuators"}, loop={"design_learning_rate": 0.5}
     )
-    result = run(tiny_robot(), config, tmp_path, progress=False)
-    saved = json.loads((tmp_path / "run.json").read_text())
+    result = run(tiny_robot(), config, tmp_path / "run", progress=False)
+    saved = json.loads((tmp_path / "run" / "run.json").read_text())
     assert saved["config"]["design"]["kind"] == "actuators"
     records = result.metrics
     assert all("placement/actuated" in r and "placement/moved" in r for r in records)
     assert all(len(r["design"]) == tiny_robot().n_regions for r in records)  # the modulus per region
-    start = litl.designs.apply(tiny_robot(), "actuators").design_space.initial()["placement"]
+    space = litl.designs.apply(tiny_robot(), "actuators").design_space
     final = result.state.design["placement"]
-    moved = float(jnp.abs(final - start[None]).max())
+    moved = float(jnp.abs(final - space.initial()["placement"][None]).max())
     assert moved > 0.1, moved
     assert np.isfinite([r["task_loss"] for r in records]).all()
+    # The replay writes the co-designed body as a drawing; robot.image= loads it back.
+    summary = replay(tmp_path / "run", seed=0, out=tmp_path / "replay" / "seed0.gif")
+    drawing = tmp_path / "replay" / "seed0_robot.png"
+    assert str(drawing) in summary["files"]
+    placed = space.placed_layout(jax.tree.map(lambda x: x[0], result.state.design), tiny_robot().layout)
+    config = compose([f"robot.image={drawing}", "robot.dx=0.03125", "design=actuators"])
+    back = build_robot(config)
+    spacing = json.loads(drawing.with_suffix(".json").read_text())["_spacing"]
+    assert same_body(placed, back.layout, spacing)
+    assert back.design is not None
+
+
+def test_a_drawing_without_a_width_is_refused_naming_the_key(tmp_path):
+    png, legend = write_png(litl.robots.get("biped", dx=1 / 32).layout, tmp_path / "b.png")
+    legend.unlink()
+    with pytest.raises(SettingsError, match=r"robot.image=.*robot.width=<length>"):
+        build_robot(compose([f"robot.image={png}"]))
+    with pytest.raises(SettingsError, match=r"robot.width.*> 0"):
+        compose([f"robot.image={png}", "robot.width=-1"])
 
 
 def test_an_evolution_strategy_refuses_a_design_space_it_cannot_search(tmp_path):

@@ -25,6 +25,7 @@ import numpy as np
 from jax.typing import DTypeLike
 
 from litl.robots.design import DesignSpace
+from litl.robots.layout import Layout
 from litl.robots.robot import Robot
 from litl.settings import Settings, SettingsError, number
 from litl.sim import Design
@@ -117,6 +118,14 @@ class PlacementSpace:
             "placement/actuated": jnp.mean(jnp.sum(self.weights(phi), axis=-1)),
             "placement/moved": jnp.mean((strongest != own).astype(phi["placement"].dtype)),
         }
+
+    def placed_layout(self, phi: dict[str, Any], layout: Layout) -> Layout:
+        """`layout` (the robot's own) with each particle's strongest channel as its actuator
+        (passive where that is the passive channel): the co-designed body as a drawing shows it
+        (`litl.robots.image.write_png`)."""
+        strongest = np.asarray(phi["placement"]).argmax(-1)
+        actuator = np.where(strongest < self.n_actuators, strongest, -1).astype(np.int32)
+        return dataclasses.replace(layout, actuator=actuator)
 
     def to_design(self, phi: dict[str, Any] | None = None, dtype: DTypeLike | None = None) -> Design:
         if phi is None:

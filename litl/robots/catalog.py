@@ -82,6 +82,46 @@ def simulation(
     return config, max(int(round(duration / dt)), 1)
 
 
+def from_image(path, dx: float, legend=None, width: float | None = None, name: str | None = None) -> Robot:
+    """A 2D robot from a drawing (`litl.robots.image`): its legend `legend`, or the one beside it
+    (``<path>.json``, as `litl.robots.image.write_png` writes it), or litl's palette; `width`,
+    its length along x, or the legend's note ``_width``. It walks right (`Locomotion`) for 1 s.
+
+    Raises:
+      LayoutError: an unreadable drawing or legend, or no width given or noted.
+    """
+    import json
+    import pathlib
+
+    from litl.robots.layout import LayoutError
+
+    path = pathlib.Path(path)
+    beside = path.with_suffix(".json")
+    if legend is None and beside.is_file():
+        legend = beside
+    if width is None and legend is not None:
+        try:
+            noted = json.loads(pathlib.Path(legend).read_text()).get("_width")
+        except (OSError, ValueError, AttributeError):
+            noted = None
+        width = float(noted) if noted is not None else None
+    if width is None:
+        raise LayoutError(
+            f"robot.image={path}: how long is the robot along x? set robot.width=<length> (e.g. "
+            f"0.3 of the unit domain); a legend written by litl notes it as _width"
+        )
+    config, steps = simulation(2, dx, duration=1.0)
+    layout = layout_from_png(path, width=width, dx=dx, legend=legend)
+    return Robot(
+        name or path.stem,
+        place(layout, config, x=start_x(dx)),
+        config,
+        task=Task(Locomotion()),
+        steps=steps,
+        description=f"2D robot drawn in {path.name}, {width:g} wide. Task: run right.",
+    )
+
+
 def start_x(dx: float) -> float:
     """Left edge of a walker: 0.1, or one cell clear of the 3-cell side wall on coarse grids."""
     return max(0.1, 4.5 * dx)

@@ -16,7 +16,8 @@ Actuator fibers point up; design regions are 0 for passive pixels and 1 + k for 
 A legend (a JSON file or a dict) replaces the palette. Keys are colours ``"#rrggbb"``, values say
 what the colour is, with the keys ``actuator`` (id), ``fiber`` ([x, y]), ``region`` (id),
 ``groups`` (list of names) and ``pinned`` (bool); ``{}`` is passive body in region 0, and the
-string ``"empty"`` marks a background colour:
+string ``"empty"`` marks a background colour; keys that start with ``_`` are notes, not colours
+(`write_png` records the drawing's scale in ``_spacing`` and ``_width``):
 
     {"#000000": {}, "#ff0000": {"actuator": 0, "region": 1},
      "#00a000": {"groups": ["horn"]}, "#c0c0ff": "empty"}
@@ -73,6 +74,8 @@ def read_legend(legend) -> dict[tuple[int, int, int], dict | str]:
             raise LayoutError('a legend file must hold a JSON object {"#rrggbb": {...}}')
     parsed: dict[tuple[int, int, int], dict | str] = {}
     for key, role in legend.items():
+        if str(key).startswith("_"):  # a note (write_png records the drawing's scale so)
+            continue
         rgb = _colour(key)
         if role == "empty":
             parsed[rgb] = "empty"
@@ -187,3 +190,105 @@ def layout_from_png(path, width: float, dx: float, legend=None, per_cell: int = 
     """
     rgb, opaque = read_image(path)
     return layout_from_pixels(rgb, opaque, width, dx, legend, per_cell, source=os.fspath(path))
+
+
+def write_png(layout: Layout, path, spacing: float | None = None) -> tuple[pathlib.Path, pathlib.Path]:
+    """Write a 2D layout as a drawing that `layout_from_png` reads back: one pixel per particle
+    (`spacing`: the particles' lattice spacing, found from their positions when None), in litl's
+    palette where a role is one of its entries (black passive, grey pinned, actuator k in its
+    colour with region k + 1 and an upward fiber) and in further colours otherwise, each named in
+    the legend written beside it (``<path>.json``: actuator, fiber, region, groups, pinned).
+
+    Returns (png path, legend path). Read it back with ``layout_from_png(png, width, dx,
+    legend=<legend path>)``, `width` the image's width in pixels times `spacing` and `dx` the
+    spacing times the particles per cell (the legend records both)."""
+    from PIL import Image
+
+    positions = np.asarray(layout.positions, np.float64)
+    if positions.shape[1] != 2:
+        raise LayoutError(f"write_png draws a 2D robot; this layout is {positions.shape[1]}D")
+    spacing = float(spacing) if spacing is not None else _lattice_spacing(positions)
+    cells = np.rint((positions - positions.min(0)) / spacing).astype(np.int64)
+    width_px, height_px = (int(c) + 1 for c in cells.max(0))
+    if len(np.unique(cells, axis=0)) != len(cells):
+        raise LayoutError(f"two particles share a pixel at spacing {spacing:g}: pass the lattice spacing")
+    roles, role_of = _roles(layout)
+    colours = _role_colours(roles)
+    pixels = np.full((height_px, width_px, 3), 255, np.uint8)
+    rgb = np.asarray([_colour(colours[role]) for role in roles], np.uint8)
+    pixels[height_px - 1 - cells[:, 1], cells[:, 0]] = rgb[role_of]
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(pixels, "RGB").save(path)
+    legend = {colours[role]: _legend_entry(role, layout) for role in roles}
+    legend_path = path.with_suffix(".json")
+    notes = {"_spacing": spacing, "_width": width_px * spacing}
+    legend_path.write_text(json.dumps({**legend, **notes}, indent=1))
+    return path, legend_path
+
+
+def _lattice_spacing(positions: np.ndarray) -> float:
+    """The smallest distance between two distinct x (or y) coordinates of the particles."""
+    steps = [np.diff(np.unique(np.round(positions[:, axis], 12))) for axis in range(2)]
+    found = np.concatenate([s[s > 1e-12] for s in steps])
+    if not found.size:
+        raise LayoutError("cannot find the particles' spacing: pass spacing=")
+    return float(found.min())
+
+
+def _roles(layout: Layout) -> tuple[list[tuple], np.ndarray]:
+    """Each distinct (actuator, region, pinned, groups) of the particles, and each particle's."""
+    n = len(layout.positions)
+    member: list[list[str]] = [[] for _ in range(n)]
+    for name, indices in sorted(layout.groups.items()):
+        for i in np.asarray(indices):
+            member[int(i)].append(name)
+    keys = [
+        (int(layout.actuator[i]), int(layout.region[i]), bool(layout.pinned[i]), tuple(member[i]))
+        for i in range(n)
+    ]
+    roles = sorted(set(keys))
+    index = {role: k for k, role in enumerate(roles)}
+    return roles, np.asarray([index[key] for key in keys])
+
+
+def _role_colours(roles: list[tuple]) -> dict[tuple, str]:
+    """litl's palette colour where the role is the palette's, else a colour no other role has."""
+    palette = default_legend()
+    colours: dict[tuple, str] = {}
+    for role in roles:
+        actuator, region, pinned, groups = role
+        if groups:
+            continue
+        if actuator < 0 and region == 0:
+            colours[role] = "#808080" if pinned else "#000000"
+        elif 0 <= actuator < len(ACTUATOR_COLOURS) and region == actuator + 1 and not pinned:
+            colours[role] = ACTUATOR_COLOURS[actuator]
+    taken = set(colours.values()) | set(palette) | set(EMPTY_COLOURS)
+    candidate = 0
+    for role in roles:
+        while role not in colours:
+            candidate += 1
+            red, green, blue = (
+                (candidate * 97) % 251,
+                (candidate * 57 + 40) % 239,
+                (candidate * 31 + 80) % 233,
+            )
+            colour = f"#{red:02x}{green:02x}{blue:02x}"
+            if colour not in taken:
+                colours[role] = colour
+                taken.add(colour)
+    return colours
+
+
+def _legend_entry(role: tuple, layout: Layout) -> dict:
+    actuator, region, pinned, groups = role
+    entry: dict[str, Any] = {"region": region}
+    if actuator >= 0:
+        entry["actuator"] = actuator
+        entry["fiber"] = [float(f) for f in np.asarray(layout.fiber)[actuator]]
+    if pinned:
+        entry["pinned"] = True
+    if groups:
+        entry["groups"] = list(groups)
+    return entry
