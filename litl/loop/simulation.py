@@ -113,6 +113,10 @@ class Simulation:
             (controller_params, observer), self.robot.design_space.to_design(design), initial
         )
         total, components = self.robot.task_loss()(initial, final)
+        penalty = self.robot.design_space.penalty(design)  # a design constraint's cost, if any
+        if penalty:
+            total = total + sum(penalty.values())
+            components = {**components, **penalty}
         if self.observer.learner is not None and not self.window.whole_grid:
             # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
             # with the state after that step: crop both around that state's centroid.

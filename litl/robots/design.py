@@ -152,6 +152,10 @@ class DesignSpace:
         """Per-iteration figures of φ beyond its modulus: none."""
         return {}
 
+    def penalty(self, design_variables: ArrayLike) -> dict[str, jnp.ndarray]:
+        """The loss's design terms (a constraint's cost): none."""
+        return {}
+
     def to_design(self, design_variables: ArrayLike | None = None, dtype: DTypeLike | None = None) -> Design:
         """The simulator's per-particle `Design` for φ (R,) (None: φ0); jittable and
         differentiable in φ."""
