@@ -238,6 +238,30 @@ def test_runs_in_worlds_are_labelled_by_the_world_and_its_own_settings():
     assert labels([in_world(kind="sand"), in_world(kind="sand", slope={"angle": 20.0})]) == ["vae", "vae"]
 
 
+def test_runs_of_other_design_spaces_are_labelled_by_the_space_and_its_own_settings():
+    def with_design(**design):
+        config = Config().replace(design=design) if design else Config()
+        settings = {"robot": "biped", "dx": 1 / 32, "steps": 40}
+        return Run(
+            path=None,
+            settings={**settings, "config": json.loads(json.dumps(config.run_settings()))},
+            records=(),
+        )
+
+    runs = [
+        with_design(),
+        with_design(kind="actuators"),
+        with_design(kind="all"),
+        with_design(kind="actuators", actuators={"sharpness": 2.0}),
+    ]
+    assert labels(runs) == [
+        "vae design=modulus",
+        "vae design=actuators design.actuators.sharpness=4",
+        "vae design=all",
+        "vae design=actuators design.actuators.sharpness=2",
+    ]
+
+
 def test_labels_name_observer_and_ablations():
     runs = [
         fake_run(),

@@ -45,6 +45,7 @@ CORE_SHORT_NAMES = (
     ("controller.learning_rate", "lr"),
     ("loop.design_learning_rate", "design lr"),
     ("world.kind", "world"),
+    ("design.kind", "design"),
 )
 
 
@@ -311,14 +312,20 @@ def _format(value: Any, name: str = "") -> str:
     return str(value)
 
 
-def _world(config: dict[str, Any]) -> dict[str, Any]:
-    """`config` with its world reduced to the kind and the keys of that kind's own
-    section (``world.slope.angle``); the others do not tell runs apart. A run without a world
-    section walked in the flat box."""
-    kind = config.get("world.kind", "flat")
-    kept = {k: v for k, v in config.items() if not k.startswith("world.")}
-    kept["world.kind"] = kind
-    kept.update({k: v for k, v in config.items() if k.startswith(f"world.{kind}.")})
+# Parts whose settings sections tell runs apart only within their kind, and their default kind
+# (a run recorded without the part had it: runs before worlds and design spaces existed).
+SECTIONED = {"world": "flat", "design": "modulus"}
+
+
+def _own_sections(config: dict[str, Any]) -> dict[str, Any]:
+    """`config` with its world and its design space each reduced to the kind and the keys of that
+    kind's own section (``world.slope.angle``); the others do not tell runs apart."""
+    kept = dict(config)
+    for part, default in SECTIONED.items():
+        kind = config.get(f"{part}.kind", default)
+        kept = {k: v for k, v in kept.items() if not k.startswith(f"{part}.")}
+        kept[f"{part}.kind"] = kind
+        kept.update({k: v for k, v in config.items() if k.startswith(f"{part}.{kind}.")})
     return kept
 
 
@@ -326,7 +333,7 @@ def _comparable(run: Run) -> dict[str, Any]:
     """A run's settings that may tell it apart from other runs of the same robot (the steps
     used, not `sim.steps`, which may be null: the robot's default)."""
     return {
-        **_world(run.config),
+        **_own_sections(run.config),
         **flatten({"material": run.settings.get("material", {})}),
         **{k: v for k, v in run.settings.items() if k in ("dx", "dt", "steps")},
     }
@@ -349,10 +356,12 @@ def labels(runs: list[Run]) -> list[str]:
         keys = sorted({key for s in settings for key in s}, key=lambda key: names.get(key, key))
         varying = []
         for key in keys:
-            # A world's own setting tells runs apart only among runs in that kind of world.
-            own = key.startswith("world.") and key != "world.kind"
+            # A world's (a design space's) own setting tells runs apart only among runs in that
+            # kind of world (of design space).
+            part = key.partition(".")[0]
+            own = part in SECTIONED and key != f"{part}.kind"
             values = {
-                (s.get("world.kind") if own else None, json.dumps(s.get(key), sort_keys=True))
+                (s.get(f"{part}.kind") if own else None, json.dumps(s.get(key), sort_keys=True))
                 for s, i in zip(settings, indices, strict=True)
                 if _relevant(key, runs[i]) and (not own or key in s)
             }
