@@ -133,9 +133,11 @@ def build_robot(config: Config) -> Robot:
 
 
 def _drawn_robot(config: Config) -> Robot:
-    """The robot drawn in `robot.image` (a 2D drawing: `litl.robots.catalog.from_image`)."""
-    dx = config.robot.dx if config.robot.dx is not None else RESOLUTIONS[config.robot.resolution][2]
-    dx = 1 / 128 if dx is None else dx  # resolution=paper: the paper's 2D grid
+    """The robot in `robot.image`: a 2D drawing, or a 3D robot's voxels (.npz;
+    `litl.robots.catalog.from_image`)."""
+    dim = 3 if str(config.robot.image).endswith(".npz") else 2
+    dx = config.robot.dx if config.robot.dx is not None else RESOLUTIONS[config.robot.resolution][dim]
+    dx = litl.robots.catalog.PAPER_DX[dim] if dx is None else dx  # resolution=paper
     try:
         return litl.robots.catalog.from_image(config.robot.image, dx, width=config.robot.width)
     except litl.robots.LayoutError as error:

@@ -252,16 +252,28 @@ def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, ga
         gait_picture = out.with_name(out.stem + "_gait.png")
         _, gait_numbers = draw_gait(robot, positions, min(stride, steps) * robot.config.dt, path=gait_picture)
         files.append(str(gait_picture))
-    placed = getattr(space, "placed_layout", None)
-    if placed is not None and robot.dim == 2:
-        from litl.robots.image import write_png
-
-        # The co-designed body as a drawing that robot.image= loads back (its legend beside it).
-        drawing, legend = write_png(
-            placed(one["design"], robot.layout), out.with_name(out.stem + "_robot.png")
-        )
-        files += [str(drawing), str(legend)]
+    files += _write_body(robot, space, one["design"], out)
     return files, positions, gait_numbers
+
+
+def _write_body(robot, space, phi, out: pathlib.Path) -> list[str]:
+    """The co-designed body (a design space that shapes it: `placed_layout`) as a file that
+    ``robot.image=`` loads back: a 2D drawing (.png, its legend beside it) or 3D voxels (.npz)."""
+    from litl.loop.progress import say
+    from litl.robots import LayoutError
+    from litl.robots.image import write_png, write_voxels
+
+    placed = getattr(space, "placed_layout", None)
+    if placed is None:
+        return []
+    try:
+        body = placed(phi, robot.layout)
+    except LayoutError as error:
+        say(f"replay: the co-designed body is not written as a robot: {error}")
+        return []
+    if robot.dim == 2:
+        return [str(path) for path in write_png(body, out.with_name(out.stem + "_robot.png"))]
+    return [str(write_voxels(body, out.with_name(out.stem + "_robot.npz")))]
 
 
 def environment(

@@ -16,7 +16,7 @@ from litl.loop import make_algorithm
 from litl.loop.run import run
 from litl.replay import replay
 from litl.robots.catalog import from_image
-from litl.robots.image import write_png
+from litl.robots.image import write_png, write_voxels
 from tests.loop.tiny import tiny_config, tiny_robot
 
 
@@ -240,3 +240,32 @@ def test_a_volume_above_its_fraction_costs_and_the_geometry_sheds_it(tmp_path):
 def test_bad_geometry_settings_are_refused_naming_the_key_and_range(changes, message):
     with pytest.raises(SettingsError, match=message):
         Config().replace(design={"kind": "geometry", "geometry": changes})
+
+
+def test_a_3d_robot_written_as_voxels_loads_back_to_the_same_body(tmp_path):
+    robot = litl.robots.get("quadruped", dx=1 / 16)
+    path = write_voxels(robot.layout, tmp_path / "quadruped.npz")
+    back = build_robot(compose([f"robot.image={path}", "robot.dx=0.0625"]))
+    spacing = float(np.load(path)["spacing"])
+    assert back.dim == 3 and same_body(robot.layout, back.layout, spacing)
+    np.testing.assert_allclose(back.layout.fiber, robot.layout.fiber)
+
+
+def test_the_kept_body_drops_removed_material_and_a_body_without_an_actuator_is_refused():
+    robot = tiny_robot()
+    space = litl.designs.apply(robot, "all").design_space
+    phi = space.initial()
+    y = np.asarray(robot.layout.positions)[:, 1]
+    top = y > np.quantile(y, 0.6)  # the torso's upper part (the filter smooths thinner cuts)
+    phi["occupancy"] = jnp.where(jnp.asarray(top), 0.0, 1.0)
+    kept = space.placed_layout(phi, robot.layout)
+    assert (
+        robot.layout.n_particles - 1.5 * top.sum()
+        < kept.n_particles
+        < robot.layout.n_particles - 0.5 * top.sum()
+    )
+    assert np.asarray(kept.positions)[:, 1].max() < y.max()
+    passive = dict(phi, occupancy=jnp.ones_like(phi["occupancy"]))
+    passive["placement"] = phi["placement"].at[:, -1].set(50.0)  # every particle passive
+    with pytest.raises(litl.robots.LayoutError, match="have no particles"):
+        space.placed_layout(passive, robot.layout)

@@ -242,14 +242,33 @@ class BodySpace:
         return {"design/volume": self.geometry.volume_weight * over**2}
 
     def placed_layout(self, phi: dict[str, Any], layout: Layout) -> Layout:
-        """`layout` (the robot's own) with each particle's strongest channel as its actuator
-        (passive where that is the passive channel): the co-designed body as a drawing shows it
-        (`litl.robots.image.write_png`)."""
-        if "placement" not in phi:
-            return layout
-        strongest = np.asarray(phi["placement"]).argmax(-1)
-        actuator = np.where(strongest < self.n_actuators, strongest, -1).astype(np.int32)
-        return dataclasses.replace(layout, actuator=actuator)
+        """`layout` (the robot's own) as φ shapes it: each particle's strongest channel as its
+        actuator (passive where that is the passive channel), and only the particles whose
+        material (`density`) is at least a half: the co-designed body, as a drawing keeps it
+        (`litl.robots.image.write_png`).
+
+        Raises:
+          LayoutError: the body left an actuator, a design region or a named group with no
+            particle (a robot needs each).
+        """
+        actuator = np.asarray(layout.actuator)
+        if "placement" in phi:
+            strongest = np.asarray(phi["placement"]).argmax(-1)
+            actuator = np.where(strongest < self.n_actuators, strongest, -1).astype(np.int32)
+        keep = np.ones(len(actuator), bool)
+        if "occupancy" in phi:
+            keep = np.asarray(self.density(phi)) >= 0.5
+        index = np.cumsum(keep) - 1
+        groups = {name: index[members[keep[members]]] for name, members in layout.groups.items()}
+        return Layout(
+            positions=np.asarray(layout.positions)[keep],
+            volume=np.asarray(layout.volume)[keep],
+            actuator=actuator[keep],
+            fiber=layout.fiber,
+            region=np.asarray(layout.region)[keep],
+            pinned=np.asarray(layout.pinned)[keep],
+            groups=groups,
+        )
 
     def to_design(self, phi: dict[str, Any] | None = None, dtype: DTypeLike | None = None) -> Design:
         if phi is None:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from litl.errors import UserError
-from litl.robots.image import layout_from_png
+from litl.robots.image import layout_from_png, layout_from_voxels
 from litl.robots.robot import Material, Robot, place
 from litl.robots.shapes import Box, Ellipse, Extrusion, Part, Polygon, sample_parts
 from litl.robots.tasks import Locomotion, Reach, Task
@@ -85,7 +85,9 @@ def simulation(
 def from_image(path, dx: float, legend=None, width: float | None = None, name: str | None = None) -> Robot:
     """A 2D robot from a drawing (`litl.robots.image`): its legend `legend`, or the one beside it
     (``<path>.json``, as `litl.robots.image.write_png` writes it), or litl's palette; `width`,
-    its length along x, or the legend's note ``_width``. It walks right (`Locomotion`) for 1 s.
+    its length along x, or the legend's note ``_width``. A ``.npz`` file is a 3D robot's voxels
+    (`litl.robots.image.write_voxels`), its particles as saved. It walks along x
+    (`Locomotion`) for 1 s.
 
     Raises:
       LayoutError: an unreadable drawing or legend, or no width given or noted.
@@ -96,6 +98,16 @@ def from_image(path, dx: float, legend=None, width: float | None = None, name: s
     from litl.robots.layout import LayoutError
 
     path = pathlib.Path(path)
+    if path.suffix == ".npz":  # a 3D robot's voxels (`litl.robots.image.write_voxels`)
+        config, steps = simulation(3, dx, duration=1.0)
+        return Robot(
+            name or path.stem,
+            place(layout_from_voxels(path), config, x=start_x(dx)),
+            config,
+            task=Task(Locomotion()),
+            steps=steps,
+            description=f"3D robot from the voxels in {path.name}. Task: run along x.",
+        )
     beside = path.with_suffix(".json")
     if legend is None and beside.is_file():
         legend = beside

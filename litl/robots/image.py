@@ -292,3 +292,54 @@ def _legend_entry(role: tuple, layout: Layout) -> dict:
     if groups:
         entry["groups"] = list(groups)
     return entry
+
+
+def write_voxels(layout: Layout, path, spacing: float | None = None) -> pathlib.Path:
+    """Write a 3D layout as voxels that `layout_from_voxels` reads back (`.npz`): each particle's
+    lattice cell (`spacing`: the particles' lattice spacing, found from their positions when
+    None), actuator, region and pin, the actuators' fibers and the named groups."""
+    positions = np.asarray(layout.positions, np.float64)
+    if positions.shape[1] != 3:
+        raise LayoutError(f"write_voxels writes a 3D robot; this layout is {positions.shape[1]}D (write_png)")
+    spacing = float(spacing) if spacing is not None else _lattice_spacing(positions)
+    cells = np.rint((positions - positions.min(0)) / spacing).astype(np.int64)
+    if len(np.unique(cells, axis=0)) != len(cells):
+        raise LayoutError(f"two particles share a voxel at spacing {spacing:g}: pass the lattice spacing")
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays: dict[str, Any] = {
+        "cells": cells,
+        "spacing": np.asarray(spacing),
+        "actuator": np.asarray(layout.actuator),
+        "region": np.asarray(layout.region),
+        "pinned": np.asarray(layout.pinned),
+        "fiber": np.asarray(layout.fiber),
+    }
+    arrays.update({f"group:{name}": np.asarray(members) for name, members in layout.groups.items()})
+    with open(path, "wb") as out:
+        np.savez_compressed(out, **arrays)
+    return path
+
+
+def layout_from_voxels(path) -> Layout:
+    """The 3D layout `write_voxels` wrote: one particle per voxel, as saved."""
+    try:
+        with np.load(path) as saved:
+            data = {key: saved[key] for key in saved.files}
+    except (OSError, ValueError) as error:
+        raise LayoutError(f"{os.fspath(path)!r} is not a voxel file litl wrote (.npz): {error}") from None
+    missing = {"cells", "spacing", "actuator", "region", "pinned", "fiber"} - set(data)
+    if missing:
+        raise LayoutError(
+            f"{os.fspath(path)!r} lacks {sorted(missing)}: write it with litl.robots.image.write_voxels"
+        )
+    spacing = float(data["spacing"])
+    return Layout(
+        positions=(data["cells"] + 0.5) * spacing,
+        volume=np.full(len(data["cells"]), spacing**3),
+        actuator=data["actuator"],
+        fiber=data["fiber"],
+        region=data["region"],
+        pinned=data["pinned"],
+        groups={key.partition(":")[2]: value for key, value in data.items() if key.startswith("group:")},
+    )
