@@ -15,6 +15,7 @@ from litl.config import Config, SettingsError
 from litl.loop import make_algorithm
 from litl.loop.run import run
 from litl.replay import replay
+from litl.report import write_report
 from litl.robots.catalog import from_image
 from litl.robots.image import write_png, write_voxels
 from tests.loop.tiny import tiny_config, tiny_robot
@@ -128,6 +129,9 @@ def test_co_designing_the_placement_moves_the_muscles_and_the_replay_draws_a_bod
     spacing = json.loads(drawing.with_suffix(".json").read_text())["_spacing"]
     assert same_body(placed, back.layout, spacing)
     assert back.design is not None
+    # The report draws the body's figures over the iterations.
+    report = write_report(tmp_path / "run", tmp_path / "report")
+    assert "design.png" in report.summary["files"] and (tmp_path / "report" / "design.png").stat().st_size > 0
 
 
 def test_a_drawing_without_a_width_is_refused_naming_the_key(tmp_path):

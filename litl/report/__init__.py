@@ -13,7 +13,8 @@ Every directory at or below the given one that holds `run.json` and `metrics.jso
 `litl.loop.run`) is a run. Each run is labelled by what distinguishes it (observer, settings that
 differ between runs of the same robot, non-default ablation switches); runs of one robot with the
 same label are pooled as seeds. Written files: `task_loss.png`, `components.png` (tasks with
-several terms), `recon_loss.png` and `recon_sgd.png` (learned observers: per optimization
+several terms), `design.png` (a co-designed body's figures, ``design=actuators|geometry|all``),
+`recon_loss.png` and `recon_sgd.png` (learned observers: per optimization
 iteration, and per SGD step of every learning phase, Fig. 5), `table1.md`, `table1.csv`, `summary.md`,
 `summary.json`.
 """

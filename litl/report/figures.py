@@ -129,6 +129,19 @@ def plot_components(
     return plot_panels(panels, path, "task term", colors, level)
 
 
+def plot_body(
+    body_curves: list[Curve], path: str | os.PathLike[str], colors: dict[str, str], level: float
+) -> pathlib.Path:
+    """The co-designed body's figures (``placement/*``, ``geometry/*``: `litl.designs`) vs
+    optimization iteration, a panel per robot and figure: the design's history."""
+    keys = list(dict.fromkeys((c.robot, c.key) for c in body_curves))
+    panels = [
+        (f"{robot}: {key}", [(c, "-", c.label) for c in body_curves if (c.robot, c.key) == (robot, key)])
+        for robot, key in keys
+    ]
+    return plot_panels(panels, path, "body figure", colors, level)
+
+
 def plot_recon_loss(
     val_curves: list[Curve],
     train_curves: list[Curve],

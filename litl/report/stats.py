@@ -192,6 +192,22 @@ def components(group: Group) -> list[str]:
     )
 
 
+BODY_FIGURES = ("placement/", "geometry/")
+
+
+def body_figures(group: Group) -> list[str]:
+    """The figures of a co-designed body a group recorded (``placement/*``, ``geometry/*``), sorted."""
+    return sorted(
+        {
+            key
+            for run in group.runs
+            for record in run.records
+            for key in record
+            if key.startswith(BODY_FIGURES)
+        }
+    )
+
+
 def table1(groups: list[Group], key: str = "retrain_change") -> list[dict[str, Any]]:
     """The paper's Table 1: `retrain_change` per retraining, mean and standard deviation.
 

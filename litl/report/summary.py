@@ -17,6 +17,7 @@ from litl.report import figures
 from litl.report.roundoff import hardly_moved, threshold
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
 from litl.report.stats import (
+    body_figures,
     components,
     confidence_band,
     curves,
@@ -466,9 +467,10 @@ def write_report(
 ) -> Report:
     """Read every run under `source` and write the report into `out` (default: `source`).
 
-    Writes `task_loss.png`, `components.png` (if a task has several terms), `recon_loss.png` (if
-    a learned observer recorded a reconstruction loss), `table1.md`, `table1.csv`, `summary.md`
-    and `summary.json`.
+    Writes `task_loss.png`, `components.png` (if a task has several terms), `design.png` (if a
+    design space recorded figures of the body: ``design=actuators|geometry|all``),
+    `recon_loss.png` (if a learned observer recorded a reconstruction loss), `table1.md`,
+    `table1.csv`, `summary.md` and `summary.json`.
 
     Raises:
       ReportError: no runs, no metrics, or a malformed file (the message names it).
@@ -503,6 +505,9 @@ def write_report(
     if several:
         component_curves = [c for g in several for key in components(g) for c in curves([g], key, level)]
         written.append(figures.plot_components(component_curves, out / "components.png", colors, level))
+    body_curves = [c for g in groups for key in body_figures(g) for c in curves([g], key, level)]
+    if body_curves:
+        written.append(figures.plot_body(body_curves, out / "design.png", colors, level))
     learned = [g for g in groups if g.learned]
     val = curves(learned, "recon_loss_val", level)
     train = curves(learned, "recon_loss_train", level)

@@ -1,0 +1,68 @@
+"""The design-spaces page's table from its run directories (docs/results/2026-12-02-design-spaces.md).
+
+    python docs/assets/2026-12-02/design-spaces/analyze.py RUNS_ROOT
+
+RUNS_ROOT holds <observer>/<condition>/ run directories (modulus, actuators, all, fixed). For each:
+the final task loss per seed (final.json), its mean with a 90% t-interval, the paired difference
+to design=modulus on the same seeds (mean and 90% t-interval), the body's figures at the last
+iteration (mean over seeds), and the run's wall time.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+
+import numpy as np
+
+from litl.report.stats import confidence_band
+
+CONDITIONS = ("fixed", "modulus", "actuators", "all")
+FIGURES = ("placement/moved", "placement/actuated", "geometry/volume", "geometry/grayness")
+
+
+def interval(values) -> str:
+    mean, low, high = (
+        float(np.asarray(v).reshape(-1)[-1]) for v in confidence_band(np.asarray(values)[:, None])
+    )
+    return f"{mean:.4f} [{low:.4f}, {high:.4f}]"
+
+
+def main(root: pathlib.Path) -> None:
+    for observer in sorted(p.name for p in root.iterdir() if p.is_dir()):
+        runs = {c: root / observer / c for c in CONDITIONS if (root / observer / c / "final.json").exists()}
+        finals = {
+            c: {r["seed"]: r["task_loss"] for r in json.loads((d / "final.json").read_text())}
+            for c, d in runs.items()
+        }
+        print(f"\n### {observer}\n")
+        print(
+            "| condition | final task loss, mean [90% CI] | minus modulus, paired [90% CI] | "
+            + " | ".join(FIGURES)
+            + " | wall |"
+        )
+        print("|---|---|---|" + "---|" * len(FIGURES) + "---|")
+        for condition, directory in runs.items():
+            seeds = sorted(finals[condition])
+            values = np.array([finals[condition][s] for s in seeds])
+            paired = "—"
+            if condition != "modulus" and "modulus" in finals:
+                paired = interval(values - np.array([finals["modulus"][s] for s in seeds]))
+            records = [json.loads(line) for line in (directory / "metrics.jsonl").read_text().splitlines()]
+            last_step = max(r["step"] for r in records)
+            last = [r for r in records if r["step"] == last_step]
+            figures = [f"{np.mean([r[f] for r in last]):.3f}" if f in last[0] else "—" for f in FIGURES]
+            wall = max(r["wall_s"] for r in records)
+            print(
+                f"| {condition} | {interval(values)} | {paired} | "
+                + " | ".join(figures)
+                + f" | {wall:.0f} s |"
+            )
+        for condition in runs:
+            shown = ", ".join(f"{finals[condition][s]:.4f}" for s in sorted(finals[condition]))
+            print(f"\n{condition} per seed: {shown}")
+
+
+if __name__ == "__main__":
+    main(pathlib.Path(sys.argv[1]))
