@@ -28,7 +28,7 @@ import numpy as np
 import orbax.checkpoint as ocp
 
 from litl import backend, provenance
-from litl.config import Config, flatten, read_sections_only
+from litl.config import Config, RunContext, flatten, read_sections_only
 from litl.errors import UserError
 from litl.loop.algorithm import Best, LoopState, make_algorithm, stack_seeds
 from litl.loop.progress import say
@@ -254,16 +254,19 @@ def save_final_losses(run_dir: pathlib.Path, losses, seeds, records):
     (run_dir / "final.json").write_text(json.dumps(summary, indent=1))
 
 
-def load_final(run_dir, robot: Robot, config: Config, which: str = "final") -> dict:
+def load_final(run_dir, robot: Robot, config: Config | RunContext, which: str = "final") -> dict:
     """The {controller, design, observer} of every seed saved by `run`.
 
     Args:
+      config: the run's settings, or its `RunContext`: what it reads of them is Algorithm 1's
+        settings (`algorithm`) and the first seed (`seed`).
       which: ``"final"`` (after the last iteration) or ``"best"`` (of each seed's best rollout).
     """
     if which not in ("final", "best"):
         raise ValueError(f"which must be 'final' or 'best', got {which!r}")
-    algorithm = make_algorithm(robot, config.algorithm)
-    template = stack_seeds([algorithm.init(config.seed + s) for s in range(config.seeds)])
+    settings = config.algorithm
+    algorithm = make_algorithm(robot, settings)
+    template = stack_seeds([algorithm.init(config.seed + s) for s in range(settings.seeds)])
     abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, jax.tree.map(np.asarray, parameters(template)))
     with ocp.StandardCheckpointer() as loader:
         return loader.restore((pathlib.Path(run_dir) / which).absolute(), abstract)
