@@ -273,3 +273,26 @@ def test_the_kept_body_drops_removed_material_and_a_body_without_an_actuator_is_
     passive["placement"] = phi["placement"].at[:, -1].set(50.0)  # every particle passive
     with pytest.raises(litl.robots.LayoutError, match="have no particles"):
         space.placed_layout(passive, robot.layout)
+
+
+def test_a_grayness_cost_pushes_the_geometry_towards_a_crisp_design():
+    """Occupancy at 0.5 everywhere is all gray; with a grayness weight, Adam on the cost alone
+    makes the design crisper (grayness falls), with no weight the cost is not there."""
+    import optax
+
+    robot = tiny_robot()
+    gray = Config().replace(design={"kind": "geometry", "geometry": {"grayness_weight": 1.0}})
+    space = litl.designs.apply(robot, gray.design).design_space
+    assert "design/grayness" not in litl.designs.apply(robot, "geometry").design_space.penalty(
+        space.initial()
+    )
+    rng = np.random.default_rng(0)
+    phi = {"occupancy": jnp.asarray(0.5 + 0.05 * rng.normal(size=robot.layout.n_particles), jnp.float32)}
+    cost = lambda phi: space.penalty(phi)["design/grayness"]
+    start = float(cost(phi))
+    adam = optax.adam(0.05)
+    opt = adam.init(phi)
+    for _ in range(30):
+        updates, opt = adam.update(jax.grad(cost)(phi), opt, phi)
+        phi = space.project(optax.apply_updates(phi, updates))
+    assert float(cost(phi)) < 0.5 * start

@@ -15,7 +15,8 @@
   sharpness `projection` (Wang et al. 2011), and scales the particle's mass by
   ``rho_min + (1 - rho_min) rho``, its stiffness by ``rho_min + (1 - rho_min) rho^p`` and its
   actuation by ``rho^p`` (`penalty` p). A volume above `volume_fraction` costs
-  ``volume_weight (volume - volume_fraction)^2`` in the loss.
+  ``volume_weight (volume - volume_fraction)^2`` in the loss, and the grayness (the mean of
+  ``4 rho (1 - rho)``) ``grayness_weight`` times itself.
 * ``youngs_modulus`` (R,): as ``design=modulus``, where the space co-designs it too.
 
 Every map has a derivative everywhere, so material or a muscle that a particle has lost can come
@@ -73,6 +74,8 @@ class GeometrySettings(Settings):
       volume_fraction: the largest share of the robot's particles the material may fill without
         cost, in (0, 1] (1: no constraint).
       volume_weight: the cost of each unit of volume above it, squared, >= 0.
+      grayness_weight: the cost of the design's grayness (the mean of 4 rho (1 - rho): 0 for a
+        crisp 0/1 design, 1 for all halves), >= 0 (0: none).
       modulus: also co-design the Young's modulus per region.
     """
 
@@ -82,6 +85,7 @@ class GeometrySettings(Settings):
     rho_min: float = 0.01
     volume_fraction: float = 1.0
     volume_weight: float = 1.0
+    grayness_weight: float = 0.0
     modulus: bool = False
 
     def check(self) -> None:
@@ -97,8 +101,9 @@ class GeometrySettings(Settings):
             self._invalid("rho_min", "must lie in (0, 1)")
         if not (number(self.volume_fraction) and 0 < self.volume_fraction <= 1):
             self._invalid("volume_fraction", "must lie in (0, 1]")
-        if not (number(self.volume_weight) and self.volume_weight >= 0):
-            self._invalid("volume_weight", "must be a number >= 0")
+        for key in ("volume_weight", "grayness_weight"):
+            if not (number(getattr(self, key)) and getattr(self, key) >= 0):
+                self._invalid(key, "must be a number >= 0")
 
 
 @dataclass(frozen=True)
@@ -235,11 +240,17 @@ class BodySpace:
         return figures
 
     def penalty(self, phi: dict[str, Any]) -> dict[str, jnp.ndarray]:
-        """The loss's design terms: the volume above `volume_fraction`, weighted and squared."""
-        if "occupancy" not in phi or self.geometry is None or not self.geometry.volume_weight:
+        """The loss's design terms: the volume above `volume_fraction`, weighted and squared, and
+        the grayness, weighted (each where its weight is not 0)."""
+        if "occupancy" not in phi or self.geometry is None:
             return {}
-        over = jnp.maximum(jnp.mean(self.density(phi)) - self.geometry.volume_fraction, 0.0)
-        return {"design/volume": self.geometry.volume_weight * over**2}
+        rho, terms = self.density(phi), {}
+        if self.geometry.volume_weight:
+            over = jnp.maximum(jnp.mean(rho) - self.geometry.volume_fraction, 0.0)
+            terms["design/volume"] = self.geometry.volume_weight * over**2
+        if self.geometry.grayness_weight:
+            terms["design/grayness"] = self.geometry.grayness_weight * jnp.mean(4.0 * rho * (1.0 - rho))
+        return terms
 
     def placed_layout(self, phi: dict[str, Any], layout: Layout) -> Layout:
         """`layout` (the robot's own) as φ shapes it: each particle's strongest channel as its
