@@ -296,3 +296,25 @@ def test_a_grayness_cost_pushes_the_geometry_towards_a_crisp_design():
         updates, opt = adam.update(jax.grad(cost)(phi), opt, phi)
         phi = space.project(optax.apply_updates(phi, updates))
     assert float(cost(phi)) < 0.5 * start
+
+
+def test_a_part_of_the_design_steps_at_its_own_step_size():
+    """The occupancy at design.geometry.learning_rate 0.02 moves by at most 0.02 in the first
+    iteration (Adam's first step is the step size times the gradient's sign), where the loop's
+    0.5 would move it by up to 0.5; the modulus keeps the loop's step."""
+    moves = {}
+    for own in (None, 0.02):
+        geometry = {"learning_rate": own, "modulus": True}
+        config = tiny_config(
+            observer={"kind": "none"},
+            controller={"kind": "sinusoid"},
+            design={"kind": "geometry", "geometry": geometry},
+            loop={"design_learning_rate": 0.5, "safeguards": {"gradient_clip": None}},
+        )
+        robot = litl.designs.apply(tiny_robot(), config.design)
+        algorithm = make_algorithm(robot, config.algorithm)
+        start = algorithm.init(0)
+        after, _ = jax.jit(algorithm.optimize)(start)
+        moves[own] = {k: float(jnp.abs(after.design[k] - start.design[k]).max()) for k in start.design}
+    assert moves[0.02]["occupancy"] <= 0.02 + 1e-6 < 0.1 < moves[None]["occupancy"]
+    assert moves[0.02]["youngs_modulus"] == pytest.approx(moves[None]["youngs_modulus"], rel=1e-4)

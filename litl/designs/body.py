@@ -21,8 +21,8 @@
 
 Every map has a derivative everywhere, so material or a muscle that a particle has lost can come
 back: the loop's Adam follows the gradient's sign, however small it has become. All parts step
-with the loop's design Adam (`loop.design_learning_rate`); modulus and occupancy are kept in their
-bounds, the logits are free.
+with the loop's design Adam, at `loop.design_learning_rate` or at their own `learning_rate`
+(in their units); modulus and occupancy are kept in their bounds, the logits are free.
 """
 
 from __future__ import annotations
@@ -51,14 +51,19 @@ class ActuatorsSettings(Settings):
       sharpness: the initial logit of each particle's own channel (the others 0), > 0: how crisp
         the robot's own muscles start.
       modulus: also co-design the Young's modulus per region (as ``design=modulus``).
+      learning_rate: the logits' own Adam step size, > 0; None: the loop's
+        (`loop.design_learning_rate`, which the modulus takes).
     """
 
     sharpness: float = 4.0
     modulus: bool = False
+    learning_rate: float | None = None
 
     def check(self) -> None:
         if not (number(self.sharpness) and self.sharpness > 0):
             self._invalid("sharpness", "must be a number > 0 (the initial logit of a particle's own channel)")
+        if self.learning_rate is not None and not (number(self.learning_rate) and self.learning_rate > 0):
+            self._invalid("learning_rate", "must be a number > 0, or null (the loop's design_learning_rate)")
 
 
 @dataclass(frozen=True)
@@ -77,6 +82,8 @@ class GeometrySettings(Settings):
       grayness_weight: the cost of the design's grayness (the mean of 4 rho (1 - rho): 0 for a
         crisp 0/1 design, 1 for all halves), >= 0 (0: none).
       modulus: also co-design the Young's modulus per region.
+      learning_rate: the occupancy's own Adam step size, > 0 (the occupancy lies in [0, 1]);
+        None: the loop's (`loop.design_learning_rate`, which the modulus takes).
     """
 
     filter_radius: float = 1.5
@@ -87,6 +94,7 @@ class GeometrySettings(Settings):
     volume_weight: float = 1.0
     grayness_weight: float = 0.0
     modulus: bool = False
+    learning_rate: float | None = None
 
     def check(self) -> None:
         if not (number(self.filter_radius) and self.filter_radius >= 1):
@@ -104,6 +112,8 @@ class GeometrySettings(Settings):
         for key in ("volume_weight", "grayness_weight"):
             if not (number(getattr(self, key)) and getattr(self, key) >= 0):
                 self._invalid(key, "must be a number >= 0")
+        if self.learning_rate is not None and not (number(self.learning_rate) and self.learning_rate > 0):
+            self._invalid("learning_rate", "must be a number > 0, or null (the loop's design_learning_rate)")
 
 
 @dataclass(frozen=True)
@@ -238,6 +248,15 @@ class BodySpace:
             figures["geometry/volume"] = jnp.mean(rho)
             figures["geometry/grayness"] = jnp.mean(4.0 * rho * (1.0 - rho))
         return figures
+
+    def step_sizes(self, design_learning_rate: float) -> dict[str, float]:
+        """{part: its Adam step over the loop's} for the parts with a step size of their own."""
+        own = {}
+        if self.placement is not None and self.placement.learning_rate is not None:
+            own["placement"] = self.placement.learning_rate / design_learning_rate
+        if self.geometry is not None and self.geometry.learning_rate is not None:
+            own["occupancy"] = self.geometry.learning_rate / design_learning_rate
+        return own
 
     def penalty(self, phi: dict[str, Any]) -> dict[str, jnp.ndarray]:
         """The loss's design terms: the volume above `volume_fraction`, weighted and squared, and

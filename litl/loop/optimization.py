@@ -227,8 +227,11 @@ class Optimization:
             updates, design_optimizer = self.design_adam.update(
                 design_grad, state.design_optimizer, state.design
             )
-            design = self.simulation.robot.design_space.project(
-                optax.apply_updates(state.design, shrink(updates))
-            )
+            space = self.simulation.robot.design_space
+            # A part of φ with a step size of its own (in its units): Adam's update rescaled to it.
+            own = space.step_sizes(self.loop.design_learning_rate)
+            if own:
+                updates = {part: u * own.get(part, 1.0) for part, u in updates.items()}
+            design = space.project(optax.apply_updates(state.design, shrink(updates)))
             state = state.replace(design=design, design_optimizer=design_optimizer)
         return state

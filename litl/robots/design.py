@@ -152,6 +152,10 @@ class DesignSpace:
         """Per-iteration figures of φ beyond its modulus: none."""
         return {}
 
+    def step_sizes(self, design_learning_rate: float) -> dict[str, float]:
+        """Parts of φ whose Adam step is not `design_learning_rate`: none."""
+        return {}
+
     def penalty(self, design_variables: ArrayLike) -> dict[str, jnp.ndarray]:
         """The loss's design terms (a constraint's cost): none."""
         return {}

@@ -5,7 +5,7 @@
 RUNS_ROOT holds <observer>/<condition>/ run directories (modulus, actuators, all, fixed). For each:
 the final task loss per seed (final.json), its mean with a 90% t-interval, the paired difference
 to design=modulus on the same seeds (mean and 90% t-interval), the body's figures at the last
-iteration (mean over seeds), and the run's wall time.
+iteration (mean over seeds).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 
 from litl.report.stats import confidence_band
 
-CONDITIONS = ("fixed", "modulus", "actuators", "all")
+CONDITIONS = ("fixed", "actuators_fixed", "modulus", "actuators", "all")
 FIGURES = ("placement/moved", "placement/actuated", "geometry/volume", "geometry/grayness")
 
 
@@ -32,6 +32,8 @@ def interval(values) -> str:
 def main(root: pathlib.Path) -> None:
     for observer in sorted(p.name for p in root.iterdir() if p.is_dir()):
         runs = {c: root / observer / c for c in CONDITIONS if (root / observer / c / "final.json").exists()}
+        if not runs:
+            continue
         finals = {
             c: {r["seed"]: r["task_loss"] for r in json.loads((d / "final.json").read_text())}
             for c, d in runs.items()
@@ -40,9 +42,9 @@ def main(root: pathlib.Path) -> None:
         print(
             "| condition | final task loss, mean [90% CI] | minus modulus, paired [90% CI] | "
             + " | ".join(FIGURES)
-            + " | wall |"
+            + " |"
         )
-        print("|---|---|---|" + "---|" * len(FIGURES) + "---|")
+        print("|---|---|---|" + "---|" * len(FIGURES))
         for condition, directory in runs.items():
             seeds = sorted(finals[condition])
             values = np.array([finals[condition][s] for s in seeds])
@@ -53,12 +55,7 @@ def main(root: pathlib.Path) -> None:
             last_step = max(r["step"] for r in records)
             last = [r for r in records if r["step"] == last_step]
             figures = [f"{np.mean([r[f] for r in last]):.3f}" if f in last[0] else "—" for f in FIGURES]
-            wall = max(r["wall_s"] for r in records)
-            print(
-                f"| {condition} | {interval(values)} | {paired} | "
-                + " | ".join(figures)
-                + f" | {wall:.0f} s |"
-            )
+            print(f"| {condition} | {interval(values)} | {paired} | " + " | ".join(figures) + " |")
         for condition in runs:
             shown = ", ".join(f"{finals[condition][s]:.4f}" for s in sorted(finals[condition]))
             print(f"\n{condition} per seed: {shown}")
