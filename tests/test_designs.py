@@ -143,11 +143,18 @@ def test_a_drawing_without_a_width_is_refused_naming_the_key(tmp_path):
         compose([f"robot.image={png}", "robot.width=-1"])
 
 
-def test_an_evolution_strategy_refuses_a_design_space_it_cannot_search(tmp_path):
+@pytest.mark.parametrize(
+    "optimizer, message",
+    [
+        ("sep_cmaes", r"searches the Young's modulus per region.*design=modulus"),
+        ("ppo", r"controls only.*would never move.*design=modulus"),
+    ],
+)
+def test_a_method_refuses_a_design_space_it_cannot_search(optimizer, message, tmp_path):
     from litl.app import compose, run_experiment
 
-    config = compose(["optimizer=sep_cmaes", "design=actuators", "+scale=smoke", "output.progress=false"])
-    with pytest.raises(SettingsError, match=r"searches the Young's modulus per region.*design=modulus"):
+    config = compose([f"optimizer={optimizer}", "design=actuators", "+scale=smoke", "output.progress=false"])
+    with pytest.raises(SettingsError, match=message):
         run_experiment(config, tmp_path / "run")
     assert not (tmp_path / "run" / "run.json").exists()
 

@@ -105,6 +105,13 @@ class PPOBaseline:
                 f"observer=none)",
                 "observer.kind",
             )
+        if robot.design is not None:
+            raise SettingsError(
+                f"optimizer=ppo controls only (the design stays at its start), so the design space "
+                f"{type(robot.design_space).__name__} would never move; use design=modulus, or "
+                f"optimizer=litl to co-design it",
+                "design.kind",
+            )
         self.name = "ppo"
         self.seeds = context.seed_ids
         env, params = litl.envs.make(robot, hold=settings.hold, dtype=jnp.dtype(sim.dtype.value))
