@@ -61,5 +61,30 @@ def main(root: pathlib.Path) -> None:
             print(f"\n{condition} per seed: {shown}")
 
 
+def observers_compared(root: pathlib.Path, a: str = "vae", b: str = "kmeans") -> None:
+    """Per condition, observer `a`'s mean final task loss minus `b`'s, with a 90% Welch interval
+    and its two-sided p (the seeds are the same numbers, but each observer starts them apart)."""
+    from scipy import stats
+
+    print(f"\n### {a} minus {b}\n")
+    print("| condition | difference [90% CI] | two-sided p |")
+    print("|---|---|---|")
+    for condition in CONDITIONS:
+        files = [root / o / condition / "final.json" for o in (a, b)]
+        if not all(f.exists() for f in files):
+            continue
+        x, y = (np.array([r["task_loss"] for r in json.loads(f.read_text())]) for f in files)
+        vx, vy = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+        difference, se = x.mean() - y.mean(), np.sqrt(vx + vy)
+        dof = (vx + vy) ** 2 / (vx**2 / (len(x) - 1) + vy**2 / (len(y) - 1))
+        half = stats.t.ppf(0.95, dof) * se
+        p = 2 * stats.t.sf(abs(difference / se), dof)
+        print(
+            f"| {condition} | {difference:+.3f} [{difference - half:+.3f}, "
+            f"{difference + half:+.3f}] | {p:.2f} |"
+        )
+
+
 if __name__ == "__main__":
     main(pathlib.Path(sys.argv[1]))
+    observers_compared(pathlib.Path(sys.argv[1]))
