@@ -325,3 +325,34 @@ def test_a_part_of_the_design_steps_at_its_own_step_size():
         moves[own] = {k: float(jnp.abs(after.design[k] - start.design[k]).max()) for k in start.design}
     assert moves[0.02]["occupancy"] <= 0.02 + 1e-6 < 0.1 < moves[None]["occupancy"]
     assert moves[0.02]["youngs_modulus"] == pytest.approx(moves[None]["youngs_modulus"], rel=1e-4)
+
+
+def test_a_growing_projection_makes_the_design_crisper_step_by_step():
+    """projection_growth 1.5: the sharpness, carried in φ and never moved by the gradient, grows
+    by 1.5 per design step taken, up to projection_max; the same occupancies read crisper."""
+    config = tiny_config(
+        observer={"kind": "none"},
+        controller={"kind": "sinusoid"},
+        design={"kind": "geometry", "geometry": {"projection_growth": 1.5, "projection_max": 10.0}},
+    )
+    robot = litl.designs.apply(tiny_robot(), config.design)
+    space = robot.design_space
+    algorithm = make_algorithm(robot, config.algorithm)
+    optimize = jax.jit(algorithm.optimize)
+    state = algorithm.init(0)
+    assert float(state.design["projection"]) == pytest.approx(2.0)
+    sharpness = []
+    for _ in range(5):
+        state, metrics = optimize(state)
+        sharpness.append(float(state.design["projection"]))
+        assert float(metrics["geometry/projection"]) == pytest.approx(sharpness[-1])
+    # Each kept design step multiplies it by 1.5 (an iteration the safeguards refuse keeps it).
+    ladder = [2.0 * 1.5**k for k in range(1, 4)] + [10.0]
+    assert all(any(abs(value - rung) < 1e-5 for rung in ladder) for value in sharpness), sharpness
+    assert sharpness == sorted(sharpness) and sharpness[-1] >= 6.75 - 1e-5
+    occupancy = jnp.linspace(0.2, 0.8, robot.layout.n_particles)
+    gray = lambda beta: float(
+        space.summary({"occupancy": occupancy, "projection": jnp.asarray(beta)})["geometry/grayness"]
+    )
+    assert gray(10.0) < gray(2.0)
+    assert "projection" not in litl.designs.apply(tiny_robot(), "geometry").design_space.initial()

@@ -73,7 +73,10 @@ class GeometrySettings(Settings):
     Attributes:
       filter_radius: the cone filter's radius in grid cells, >= 1 (a particle's occupancy is the
         weighted mean of its neighbours' within it).
-      projection: the smoothed Heaviside's sharpness beta, > 0 (larger: crisper, 0/1 designs).
+      projection: the smoothed Heaviside's first sharpness beta, > 0 (larger: crisper, 0/1 designs).
+      projection_growth: the factor beta is multiplied by after every design step, >= 1 (1: constant),
+        up to `projection_max`: a continuation that makes the design crisper as the run goes on.
+      projection_max: the largest beta, >= `projection`.
       penalty: the SIMP exponent p >= 1 of stiffness and actuation.
       rho_min: the mass and stiffness left where there is no material, in (0, 1).
       volume_fraction: the largest share of the robot's particles the material may fill without
@@ -88,6 +91,8 @@ class GeometrySettings(Settings):
 
     filter_radius: float = 1.5
     projection: float = 2.0
+    projection_growth: float = 1.0
+    projection_max: float = 64.0
     penalty: float = 3.0
     rho_min: float = 0.01
     volume_fraction: float = 1.0
@@ -103,6 +108,10 @@ class GeometrySettings(Settings):
             )
         if not (number(self.projection) and self.projection > 0):
             self._invalid("projection", "must be a number > 0 (the projection's sharpness)")
+        if not (number(self.projection_growth) and self.projection_growth >= 1):
+            self._invalid("projection_growth", "must be a number >= 1 (1: a constant sharpness)")
+        if not (number(self.projection_max) and self.projection_max >= self.projection):
+            self._invalid("projection_max", f"must be a number >= projection ({self.projection})")
         if not (number(self.penalty) and self.penalty >= 1):
             self._invalid("penalty", "must be a number >= 1 (SIMP's exponent)")
         if not (number(self.rho_min) and 0 < self.rho_min < 1):
@@ -198,6 +207,10 @@ class BodySpace:
             phi["placement"] = jnp.asarray(self.placement.sharpness * np.eye(m + 1)[own], dtype)
         if self.geometry is not None:
             phi["occupancy"] = jnp.ones((len(self.actuator),), dtype)
+            if self.geometry.projection_growth > 1:
+                # The projection's sharpness, where it grows: carried in φ so that it grows step by
+                # step (and resumes with the run), never moved by the gradient (`density` stops it).
+                phi["projection"] = jnp.asarray(self.geometry.projection, dtype)
         if self.modulus_codesigned:
             phi["youngs_modulus"] = self.base.uniform(youngs_modulus, dtype)
         return phi
@@ -208,6 +221,9 @@ class BodySpace:
             projected["youngs_modulus"] = self.base.project(phi["youngs_modulus"])
         if "occupancy" in phi:
             projected["occupancy"] = jnp.clip(phi["occupancy"], 0.0, 1.0)
+        if "projection" in phi and self.geometry is not None:
+            grown = phi["projection"] * self.geometry.projection_growth
+            projected["projection"] = jnp.minimum(grown, self.geometry.projection_max)
         return projected
 
     def modulus(self, phi: dict[str, Any]) -> jnp.ndarray:
@@ -226,7 +242,8 @@ class BodySpace:
     def density(self, phi: dict[str, Any]) -> jnp.ndarray:
         """(n_robot,) each particle's material after the filter and the projection, in [0, 1]."""
         assert self.geometry is not None and self.filter is not None
-        beta, eta = self.geometry.projection, 0.5
+        beta = jax.lax.stop_gradient(phi["projection"]) if "projection" in phi else self.geometry.projection
+        eta = 0.5
         filtered = self.filter(phi["occupancy"])
         top = jnp.tanh(beta * eta) + jnp.tanh(beta * (filtered - eta))
         return jnp.clip(top / (jnp.tanh(beta * eta) + jnp.tanh(beta * (1.0 - eta))), 0.0, 1.0)
@@ -247,6 +264,8 @@ class BodySpace:
             rho = self.density(phi)
             figures["geometry/volume"] = jnp.mean(rho)
             figures["geometry/grayness"] = jnp.mean(4.0 * rho * (1.0 - rho))
+            if "projection" in phi:
+                figures["geometry/projection"] = phi["projection"]
         return figures
 
     def step_sizes(self, design_learning_rate: float) -> dict[str, float]:
