@@ -10,7 +10,7 @@ import pytest
 
 import litl.designs
 import litl.robots
-from litl.app import build_robot, compose
+from litl.app import build_robot, compose, run_experiment
 from litl.config import Config, SettingsError
 from litl.loop import make_algorithm
 from litl.loop.run import run
@@ -356,3 +356,14 @@ def test_a_growing_projection_makes_the_design_crisper_step_by_step():
     )
     assert gray(10.0) < gray(2.0)
     assert "projection" not in litl.designs.apply(tiny_robot(), "geometry").design_space.initial()
+
+
+def test_placement_asked_of_a_robot_without_actuators_is_refused_before_anything_runs(tmp_path):
+    from PIL import Image
+
+    block = tmp_path / "block.png"
+    Image.fromarray(np.zeros((8, 16, 3), np.uint8), "RGB").save(block)  # all black: passive body
+    config = compose([f"robot.image={block}", "robot.width=0.25", "design=actuators"])
+    with pytest.raises(SettingsError, match=r"design=actuators places the robot's actuators.*has none"):
+        run_experiment(config, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
