@@ -59,7 +59,8 @@ def _walker(n_policies: int | None, steps: int, max_stretch: float | None = None
     from litl.sim import make_rollout
 
     scene = walker2d.build(jnp.float32)
-    scene = dataclasses.replace(scene, config=dataclasses.replace(scene.config, max_stretch=max_stretch))
+    own = dataclasses.replace(scene.config.own_material, max_stretch=max_stretch)
+    scene = dataclasses.replace(scene, config=scene.config.with_own_material(own))
     rng = np.random.default_rng(0)
     weights = rng.normal(0, 0.3, (walker2d.N_ACTUATORS, 4))
     bias = rng.normal(0, 0.05, walker2d.N_ACTUATORS)
@@ -88,7 +89,7 @@ def quadruped_scene(dtype=None):
     import jax.numpy as jnp
 
     from litl.robots.primitives import sample_box
-    from litl.sim import Body, Boundary, Design, SimConfig, SimState, Wall
+    from litl.sim import Body, Boundary, Design, Elastic, SimConfig, SimState, Wall
 
     dtype = dtype or jnp.float32
     dx = 1.0 / 64
@@ -121,7 +122,7 @@ def quadruped_scene(dtype=None):
         dt=0.5 * dx / speed,
         gravity=(0.0, -9.8, 0.0),
         boundary=Boundary.box(3, floor=Wall("friction", 0.5), sides="sticky"),
-        constitutive_model="neo_hookean",
+        materials=(Elastic("neo_hookean"),),
     )
     return config, body, design, SimState.at_rest(jnp.asarray(x, dtype))
 
@@ -135,7 +136,7 @@ def _quadruped(steps: int, max_stretch: float | None = None):
     from litl.sim import make_rollout
 
     config, body, design, state = quadruped_scene()
-    config = dataclasses.replace(config, max_stretch=max_stretch)
+    config = config.with_own_material(dataclasses.replace(config.own_material, max_stretch=max_stretch))
 
     def policy(params, state, grid_velocity):
         t = state.step.astype(jnp.float32) * config.dt

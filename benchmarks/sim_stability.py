@@ -58,7 +58,8 @@ def measure(
     from litl.sim.safety import wave_speed
     from litl.sim.stretch import largest_stretch
 
-    config = dataclasses.replace(robot.config, dt=robot.config.dt * dt_factor, max_stretch=max_stretch)
+    config = dataclasses.replace(robot.config, dt=robot.config.dt * dt_factor)
+    config = config.with_own_material(dataclasses.replace(config.own_material, max_stretch=max_stretch))
     steps = int(round(robot.steps / dt_factor))
     design = robot.design_space.to_design(robot.design_space.uniform(youngs))
     if strength is not None:

@@ -82,7 +82,8 @@ def load_run_config(run_dir: pathlib.Path):
     # The run's strain limit as it simulated; runs from before the limit (no key) had none.
     limit = saved.get("max_stretch")
     if robot.config.max_stretch != limit:
-        robot = dataclasses.replace(robot, config=dataclasses.replace(robot.config, max_stretch=limit))
+        own = dataclasses.replace(robot.config.own_material, max_stretch=limit)
+        robot = dataclasses.replace(robot, config=robot.config.with_own_material(own))
     check_observer(config)
     found = {"robot": robot.name, "particles": robot.layout.n_particles, "dt": robot.config.dt}
     recorded = {key: saved.get(key) for key in found}

@@ -23,6 +23,7 @@ from litl.robots.robot import Material, Robot, place
 from litl.robots.shapes import Box, Ellipse, Extrusion, Part, Polygon, sample_parts
 from litl.robots.tasks import Locomotion, Reach, Task
 from litl.sim import Boundary, SimConfig, SimConfigError
+from litl.sim.materials import Elastic
 
 GRAVITY = 3.8
 UP = (0.0, 1.0)
@@ -77,7 +78,7 @@ def simulation(
         dt=dt,
         gravity=tuple(up),
         boundary=Boundary.box(dim, thickness=3),
-        max_stretch=material.stretch_limit,
+        materials=(Elastic(max_stretch=material.stretch_limit),),
     )
     return config, max(int(round(duration / dt)), 1)
 

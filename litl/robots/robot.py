@@ -202,7 +202,9 @@ class Robot:
         limit = self.config.max_stretch
         if material.max_stretch != self.material.max_stretch:
             limit = material.stretch_limit
-        config = dataclasses.replace(self.config, dt=dt, max_stretch=limit)
+        config = dataclasses.replace(self.config, dt=dt).with_own_material(
+            dataclasses.replace(self.config.own_material, max_stretch=limit)
+        )
         return dataclasses.replace(
             self, material=material, config=config, steps=max(int(round(duration / dt)), 1)
         )

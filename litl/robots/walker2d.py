@@ -13,6 +13,7 @@ from litl.models.open_loop import SinusoidParams, sinusoid_policy
 from litl.robots.primitives import sample_box
 from litl.robots.robot import Scene
 from litl.sim import Body, Boundary, Design, SimConfig, SimState
+from litl.sim.materials import Elastic
 
 DX = 1.0 / 128
 DT = 1e-3
@@ -47,7 +48,7 @@ def build(dtype=jnp.float32) -> Scene:
         dt=DT,
         gravity=(0.0, -GRAVITY),
         boundary=Boundary.box(2, floor="sticky", sides="sticky", thickness=3),
-        constitutive_model="fixed_corotated",
+        materials=(Elastic("fixed_corotated"),),
     )
     body = Body(
         volume=jnp.ones((n,), dtype),

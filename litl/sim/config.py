@@ -1,4 +1,4 @@
-"""Static simulator configuration: grid, time step, gravity, constitutive model, boundaries.
+"""Static simulator configuration: grid, time step, gravity, materials, boundaries.
 
 Everything here is a frozen, hashable dataclass. It is closed over by the factories in
 `litl.sim.step` and `litl.sim.rollout`, so changing it recompiles; differentiable quantities live in
@@ -18,18 +18,18 @@ Conventions:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any, Literal
 
 from litl.errors import UserError
+from litl.sim.materials import Elastic
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
-ConstitutiveModel = Literal["fixed_corotated", "neo_hookean"]
 Buffering = Literal["auto", "none", "fields", "fields_and_nodes"]
 
 WALL_KINDS = ("sticky", "slip", "friction", "open")
-CONSTITUTIVE_MODELS = ("fixed_corotated", "neo_hookean")
 BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
 
 
@@ -154,24 +154,17 @@ class SimConfig:
       dt: time step.
       gravity: acceleration vector, one entry per axis (zero allowed).
       boundary: walls and pinned regions; default: sticky box of thickness 3.
-      constitutive_model: the stress function, ``"fixed_corotated"`` or ``"neo_hookean"``
-        (`litl.sim.constitutive`).
       mass_epsilon: added to the grid mass before dividing momentum by it, in units of the mean
         particle mass (1e-10 as in DiffTaichi, whose particles have unit mass).
-      max_stretch: strain limit: after each step, every singular value of a particle's deformation
-        gradient above this bound (> 1) is clamped to it, i.e. the material yields plastically
-        instead of stretching further (`litl.sim.stretch`). It bounds the stress of a particle
-        torn from the body, whose stiffening under stretch the time step does not cover (at
-        dx 1/128 such a particle blew rollouts up). A particle that never reaches it keeps its F
-        exactly; a rollout that never reaches it agrees with an unlimited one to rounding. None:
-        purely elastic (ChainQueen / DiffTaichi, the published walker's scene, the 3D walkers);
-        the catalog's 2D robots use `litl.robots.design.MAX_STRETCH` (`Material.max_stretch`).
-      materials: the scene's materials with their return mappings (`litl.sim.materials`:
-        `Elastic`, `Sand`, `Clay`, `Fluid`); each particle's `Body.material` indexes this tuple.
-        Empty (the default): every particle is ``Elastic(constitutive_model, max_stretch)``, the
-        program today's scenes always ran; given, `constitutive_model` and `max_stretch` keep
-        their defaults or describe its first entry, an `Elastic` (a robot's own material, which
-        the scene's other bodies join).
+      materials: the scene's materials, each a stress law with its return mapping
+        (`litl.sim.materials`: `Elastic`, `Sand`, `Clay`, `Fluid`): the one way to give a body its
+        material. Each particle's `Body.material` indexes this tuple (None: every particle is of
+        the first). The first is the robot's own (`own_material`), for the catalog's robots an
+        `Elastic`: its stress law, fixed-corotated or neo-Hookean or a function of one's own, and
+        its strain limit (`max_stretch`); a world's bodies (sand, water) join it. Default: ``(Elastic(),)``,
+        purely elastic fixed-corotated (ChainQueen / DiffTaichi, the published walker's scene,
+        the 3D walkers); the catalog's 2D robots limit their stretch
+        (`litl.robots.design.MAX_STRETCH`, `Material.max_stretch`).
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
@@ -188,11 +181,9 @@ class SimConfig:
     dt: float
     gravity: tuple[float, ...]
     boundary: Boundary | None = None
-    constitutive_model: ConstitutiveModel = "fixed_corotated"
     mass_epsilon: float = 1e-10
-    max_stretch: float | None = None
     buffering: Buffering = "auto"
-    materials: tuple[Any, ...] = ()
+    materials: tuple[Any, ...] = (Elastic(),)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
@@ -215,31 +206,13 @@ class SimConfig:
             raise SimConfigError(
                 f"gravity must be a finite vector with {dim} entries (one per axis), got {self.gravity!r}"
             )
-        if self.constitutive_model not in CONSTITUTIVE_MODELS:
-            raise SimConfigError(
-                f"unknown constitutive_model {self.constitutive_model!r}; choose one of {CONSTITUTIVE_MODELS}"
-            )
-        if self.max_stretch is not None and not is_stretch_bound(self.max_stretch):
-            raise SimConfigError(
-                f"max_stretch must be a finite number > 1 (the largest principal stretch a particle "
-                f"keeps, e.g. 3.0) or None (no limit), got {self.max_stretch!r}"
-            )
         object.__setattr__(self, "materials", tuple(self.materials))
-        if self.materials:
-            if not all(callable(getattr(m, "update", None)) for m in self.materials):
-                raise SimConfigError(
-                    "SimConfig.materials must hold litl.sim.materials models (Elastic, Sand, Clay, "
-                    f"Fluid), got {self.materials!r}"
-                )
-            named = self.constitutive_model != "fixed_corotated" or self.max_stretch is not None
-            first = self.materials[0]
-            stated = (getattr(first, "model", None), getattr(first, "max_stretch", 0.0))
-            if named and stated != (self.constitutive_model, self.max_stretch):
-                raise SimConfigError(
-                    "SimConfig.materials is given, so constitutive_model and max_stretch must keep "
-                    "their defaults, or describe its first material (Elastic(model=..., "
-                    "max_stretch=...)); put them in that Elastic entry instead"
-                )
+        if not self.materials or not all(callable(getattr(m, "update", None)) for m in self.materials):
+            raise SimConfigError(
+                "SimConfig.materials must hold one or more litl.sim.materials models (Elastic, "
+                "Sand, Clay, Fluid), the robot's own first, e.g. (Elastic(max_stretch=3.0),); "
+                f"got {self.materials!r}"
+            )
         if self.buffering not in BUFFERINGS:
             raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
         boundary = Boundary.box(dim) if self.boundary is None else self.boundary
@@ -277,7 +250,46 @@ class SimConfig:
         return tuple(n * self.dx for n in self.grid_shape)
 
     @property
+    def own_material(self) -> Any:
+        """The robot's own material, `materials[0]` (an `Elastic` for every catalog robot)."""
+        return self.materials[0]
+
+    @property
+    def max_stretch(self) -> float | None:
+        """The robot's own strain limit (`Elastic.max_stretch` of `materials[0]`; None: none)."""
+        return getattr(self.own_material, "max_stretch", None)
+
+    def with_own_material(self, material: Any) -> SimConfig:
+        """This config with `material` as the robot's own (`materials[0]`), the others kept."""
+        return dataclasses.replace(self, materials=(material, *self.materials[1:]))
+
+    @property
     def moving_colliders(self) -> bool:
         """Whether a collider moves (`Collider.velocity`): the step then reads the time."""
         assert self.boundary is not None  # set in __post_init__
         return any(c.moving for c in self.boundary.colliders)
+
+
+# Keys that SimConfig had before its materials were the one way to give a body its material.
+MOVED_TO_MATERIAL = frozenset({"constitutive_model", "max_stretch"})
+
+
+def _refusing_moved_keys(init: Callable[..., None]) -> Callable[..., None]:
+    """SimConfig's __init__, refusing the keys that became the robot's `Elastic` with a message
+    that says where they went."""
+
+    @functools.wraps(init)
+    def checked(self: SimConfig, *args: Any, **kwargs: Any) -> None:
+        moved = sorted(MOVED_TO_MATERIAL & kwargs.keys())
+        if moved:
+            raise SimConfigError(
+                f"SimConfig({moved[0]}=...) is gone: a body's material is given one way, as "
+                "SimConfig(materials=(Elastic(model=..., max_stretch=...),)) "
+                "(litl.sim.materials.Elastic; config.with_own_material(...) changes it)"
+            )
+        init(self, *args, **kwargs)
+
+    return checked
+
+
+SimConfig.__init__ = _refusing_moved_keys(SimConfig.__init__)  # type: ignore[method-assign]

@@ -1,13 +1,15 @@
 """Constitutive models as Kirchhoff stresses tau(F), plus the active actuation stress.
 
-`SimConfig.constitutive_model` names one of `CONSTITUTIVE_MODELS`; any other stress function of
-the same form can be passed to `make_step` / `make_rollout` (``stress=``). (A robot's `Material`
+A robot's material (`litl.sim.materials.Elastic`, in `SimConfig.materials`) names one of
+`CONSTITUTIVE_MODELS` or takes any other stress function of the same form. (A robot's `Material`
 is something else: the parameter values, E, nu, density, actuator strength.)
 
 Matrices are per-component lists (see `litl.sim.linalg`): `F[i][j]` is an (n,) array; mu, lam (n,).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 import jax.numpy as jnp
 
@@ -30,6 +32,7 @@ def neo_hookean(F, mu, lam):
     return linalg.add_to_diagonal(shear, lam * jnp.log(J) - mu)
 
 
+ConstitutiveModel = Literal["fixed_corotated", "neo_hookean"]
 CONSTITUTIVE_MODELS = {"fixed_corotated": fixed_corotated, "neo_hookean": neo_hookean}
 
 

@@ -137,7 +137,6 @@ def make_rollout(
     observe: Callable[[SimState], Any] = centroid,
     remat: bool = True,
     checkpoint_every: int | str | None = "auto",
-    stress=None,
     field: GridField = velocity_field,
     memory_budget: int | None = None,
 ) -> Rollout:
@@ -159,8 +158,6 @@ def make_rollout(
       checkpoint_every: "auto" (segments only where the memory budget needs them), K (always
         segments of K steps, a multiple of `snapshot_stride` when both are given), or None
         (never).
-      stress: ``stress(F, mu, lam) -> tau``, the constitutive model (see `litl.sim.make_step`);
-        None: `config.constitutive_model`'s.
       field: ``field(grid) -> (*grid_shape, d)``, what the policy reads and the snapshots record
         of each step's `Grid` (`litl.sim.fields`; default: the node velocities).
       memory_budget: bytes one rollout's backward pass may keep (under `jax.vmap`, divide the
@@ -172,7 +169,7 @@ def make_rollout(
     """
     _check_arguments(steps, snapshot_stride, checkpoint_every, memory_budget)
     warn_if_slow_gpu_scatter()
-    step_fn = make_component_step(config, body, stress)
+    step_fn = make_component_step(config, body)
     schedule = _Schedule(steps, snapshot_stride, checkpoint_every, memory_budget)
 
     def initial_carry(design: Design, initial_state: SimState):

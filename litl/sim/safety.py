@@ -141,11 +141,11 @@ def validate(config: SimConfig, body: Body, design: Design, state: SimState) -> 
         if np.shape(body.material) != (n,):
             raise SimConfigError(f"body.material must have shape {(n,)}, got {np.shape(body.material)}")
         ids = np.asarray(body.material)
-        count = max(len(config.materials), 1)
+        count = len(config.materials)
         if ids.min() < 0 or ids.max() >= count:
             raise SimConfigError(
                 f"body.material ids must index SimConfig.materials ({count} given: "
-                f"{[type(m).__name__ for m in config.materials] or ['the default elastic material']}), "
+                f"{[type(m).__name__ for m in config.materials]}), "
                 f"got range [{ids.min()}, {ids.max()}]; add the missing materials to SimConfig.materials"
             )
     if body.observed is not None and np.shape(body.observed) != (n,):

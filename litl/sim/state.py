@@ -105,8 +105,7 @@ class Body:
       fiber: (m, d) unit fiber direction of each actuator.
       pinned: (n,) bool, particles held fixed in place.
       material: (n,) int32 index of each particle's material in `SimConfig.materials`, or None:
-        every particle is of the first (or, without `SimConfig.materials`, of the config's elastic
-        material).
+        every particle is of the first (the robot's own).
       observed: (n,) bool, the particles an observer sees (a robot among terrain bodies), or
         None: all. Given, each step also scatters these particles' mass to the grid
         (`Grid.observed_mass`), and the grid fields (`litl.sim.fields`) keep only the nodes it

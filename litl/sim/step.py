@@ -10,15 +10,11 @@ from flax import struct
 
 from litl.sim import linalg, materials, transfer
 from litl.sim.boundary import apply_boundary
-from litl.sim.config import SimConfig, SimConfigError
-from litl.sim.constitutive import CONSTITUTIVE_MODELS, actuation_stress
+from litl.sim.config import SimConfig
+from litl.sim.constitutive import actuation_stress
 from litl.sim.state import Body, Design, Grid, SimState
-from litl.sim.stretch import limit_stretch
 
 StepFn = Callable[[SimState, jnp.ndarray, Design], tuple[SimState, Grid]]
-# tau = stress(F, mu, lam): Kirchhoff stress from per-component F (F[i][j] of shape (n,)) and (n,)
-# Lamé parameters, as the models in `litl.sim.constitutive`.
-StressFn = Callable[[list, jnp.ndarray, jnp.ndarray], list]
 
 
 def particle_activation(body: Body, actuation, design: Design):
@@ -136,18 +132,13 @@ def resolve_buffering(config: SimConfig, backend: str | None = None) -> str:
     return "none"
 
 
-def make_component_step(config: SimConfig, body: Body, stress: StressFn | None = None):
+def make_component_step(config: SimConfig, body: Body):
     """Like `make_step`, on `Components`: ``step(components, actuation, design, token=None)``.
 
     `token`, a () int32 >= 0 that is not batched under vmap (a scan counter), lets the step
     compute values read by many consumers into buffers (`linalg.materialize`), as
     `resolve_buffering(config)` says, decided once here for the default backend.
     """
-    if stress is not None and config.materials:
-        raise SimConfigError(
-            "pass either stress= or SimConfig.materials, not both: a material brings its own stress"
-        )
-    stress_model = stress or CONSTITUTIVE_MODELS[config.constitutive_model]
     dx, dt, dim = config.dx, config.dt, config.dim
     buffering = resolve_buffering(config)
     buffer_fields = buffering != "none"
@@ -160,22 +151,10 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
         mass = design.density * body.volume
         mu, lam = design.lame()
         F = linalg.matmul(linalg.add(linalg.identity(dim, mass), linalg.scale(state.C, dt)), state.F)
-        if config.materials:
-            # Each particle's return mapping and stress (`litl.sim.materials`); their shared
-            # scalars buffered wherever fields are (measured on XLA:CPU, 20k particles, sand's
-            # forward+backward: 2D 15 ms -> 4 ms, 3D 3.1 s -> 29 ms).
-            F, tau = materials.update(config.materials, body.material, F, mu, lam, field_token)
-            if field_token is not None:
-                F = linalg.materialize(F, field_token)
-        else:
-            if config.max_stretch is not None:
-                # Its shared scalars buffered where nodes are (3D on XLA:CPU: forward 7.3 s -> 5.3 s
-                # on the quadruped); in 2D that costs more in the backward pass than it saves.
-                F = limit_stretch(F, config.max_stretch, node_token)
-                if field_token is not None:
-                    # Read by every stress component: clamped once, not once per reader (XLA:CPU).
-                    F = linalg.materialize(F, field_token)
-            tau = stress_model(F, mu, lam)
+        # Each particle's return mapping and stress under its material (`SimConfig.materials`);
+        # their shared scalars buffered wherever fields are (measured on XLA:CPU, 20k particles,
+        # sand's forward+backward: 2D 15 ms -> 4 ms, 3D 3.1 s -> 29 ms).
+        F, tau = materials.update(config.materials, body.material, F, mu, lam, field_token)
         tau = linalg.add(tau, active_stress(F, body, actuation, design))
         # MLS-MPM folds the stress into the affine momentum: -dt V 4/dx^2 tau (quadratic splines).
         stress_scale = (-dt * 4.0 / dx**2) * body.volume
@@ -214,16 +193,15 @@ def make_component_step(config: SimConfig, body: Body, stress: StressFn | None =
     return step
 
 
-def make_step(config: SimConfig, body: Body, stress: StressFn | None = None) -> StepFn:
+def make_step(config: SimConfig, body: Body) -> StepFn:
     """Build `step(state, actuation, design) -> (next_state, grid)` for a fixed config and body.
 
     `actuation` is (m,), one value per actuator; `grid` holds the post-boundary grid velocity and
-    mass used to move the particles, i.e. what an observer sees. `stress(F, mu, lam) -> tau` is
-    the constitutive model, a Kirchhoff stress from per-component deformation gradients and Lamé
-    parameters (`litl.sim.constitutive`; None: `config.constitutive_model`'s);
-    pass your own to simulate another constitutive model.
+    mass used to move the particles, i.e. what an observer sees. Each particle's stress law is its
+    material's (`config.materials`, `litl.sim.materials`; a law of one's own:
+    ``Elastic(model=stress_fn)``).
     """
-    component_step = make_component_step(config, body, stress)
+    component_step = make_component_step(config, body)
 
     def step(state: SimState, actuation, design: Design):
         next_state, grid = component_step(Components.unpack(state), actuation, design)

@@ -12,7 +12,6 @@ import numpy as np
 from litl.robots.robot import Robot
 from litl.robots.scenery import Scenery
 from litl.robots.tasks import Task
-from litl.sim.materials import Elastic
 
 
 class ObservedPart(enum.StrEnum):
@@ -43,7 +42,7 @@ def with_body(
     if robot.scenery:
         return robot
     config = robot.config
-    own = Elastic(config.constitutive_model, config.max_stretch)
+    own = config.own_material
     materials = (own,) if body.material == own else (own, body.material)
     shift = np.zeros(robot.dim)
     shift[1] = lift

@@ -14,7 +14,6 @@ from litl.robots.scenery import Scenery
 from litl.robots.tasks import Push, Task
 from litl.settings import Settings
 from litl.sim.config import SimConfigError
-from litl.sim.materials import Elastic
 from litl.sim.sampling import sample_box
 from litl.worlds.bodies import ObservedPart, elastic_wave_stiffness, with_body
 
@@ -78,7 +77,7 @@ def push_box(robot: Robot, settings: PushBoxSettings, context: object = None) ->
         name="box",
         positions=positions,
         volume=float(side**dim) / len(positions),
-        material=Elastic(config.constitutive_model, config.max_stretch),  # the robot's
+        material=config.own_material,  # the robot's
         youngs_modulus=density * speed * speed / elastic_wave_stiffness(nu),
         poisson_ratio=nu,
         density=density,

@@ -14,7 +14,7 @@ from litl.app import build_robot, compose
 from litl.config import SettingsError
 from litl.sim import SimConfigError, check_time_step, make_rollout, make_step, rasterize
 from litl.sim.fields import grid_velocity, mass_weighted_velocity
-from litl.sim.materials import Elastic, Fluid, Sand
+from litl.sim.materials import Fluid, Sand
 from litl.worlds import put
 
 
@@ -29,7 +29,7 @@ def test_the_bed_follows_the_robot_in_the_scene_with_its_own_material(sandy):
     own, bed = flat.layout.n_particles, sandy.scenery[0].n_particles
     assert sandy.n_particles == own and scene.state.x.shape == (own + bed, 2)
     assert sandy.config.materials == (
-        Elastic(flat.config.constitutive_model, flat.config.max_stretch),
+        flat.config.own_material,
         Sand(30.0),
     )
     np.testing.assert_array_equal(np.asarray(scene.body.material), [0] * own + [1] * bed)

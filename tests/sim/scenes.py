@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from litl.robots.primitives import sample_box
-from litl.sim import Body, Boundary, Design, SimConfig, SimState
+from litl.sim import Body, Boundary, Design, Elastic, SimConfig, SimState
 
 
 def block(
@@ -52,7 +52,7 @@ def block(
         dx=dx,
         dt=dt if dt is not None else 0.4 * dx / speed,
         gravity=tuple(g),
-        constitutive_model=constitutive_model,
+        materials=(Elastic(constitutive_model),),
         boundary=boundary if boundary is not None else Boundary.box(dim),
     )
     v = np.zeros_like(x) if velocity is None else np.broadcast_to(velocity, x.shape)

@@ -172,20 +172,18 @@ def test_particles_take_their_own_material():
         np.testing.assert_array_equal(np.asarray(tau)[mine], np.asarray(alone_tau))
 
 
-def test_an_elastic_material_entry_computes_what_the_config_did():
-    """`materials=(Elastic(model, limit),)` is the program `constitutive_model` + `max_stretch`
-    run: the same rollout (to rounding; the programs differ in their order of operations)."""
-    config, body, design, state = block(2, n_grid=16, youngs=300.0)
-    limited = dataclasses.replace(config, max_stretch=1.5)
-    as_material = dataclasses.replace(config, materials=(Elastic("fixed_corotated", 1.5),))
-    params = sine_params(body.n_actuators)
-    results = []
-    for c in (limited, as_material):
-        rollout = jax.jit(make_rollout(c, body, sine_policy, 60))
-        final, _ = rollout(params, design, state)
-        results.append(final)
-    chex.assert_trees_all_close(results[0].x, results[1].x, rtol=1e-6, atol=1e-6)
-    chex.assert_trees_all_close(results[0].F, results[1].F, rtol=1e-5, atol=1e-5)
+def test_the_robots_own_material_is_the_first_and_changes_alone():
+    """`SimConfig.materials` is the one way to give a body its material: the first is the
+    robot's (`own_material`, `max_stretch`), and `with_own_material` swaps it, keeping the
+    world's bodies after it."""
+    config = block(2, n_grid=16)[0]
+    assert config.materials == (Elastic("fixed_corotated"),) and config.max_stretch is None
+    sandy = dataclasses.replace(config, materials=(Elastic(), Sand(30.0)))
+    limited = sandy.with_own_material(Elastic("neo_hookean", 1.5))
+    assert limited.materials == (Elastic("neo_hookean", 1.5), Sand(30.0))
+    assert limited.max_stretch == 1.5 and limited.own_material.model == "neo_hookean"
+    # A scene of sand alone (the column-collapse benchmark's) has no strain limit of its own.
+    assert dataclasses.replace(config, materials=(Sand(30.0),)).max_stretch is None
 
 
 @pytest.mark.parametrize("model", [Sand(30.0), Clay(30.0), Fluid()], ids=str)
@@ -217,11 +215,13 @@ def test_bad_materials_are_refused_naming_the_key():
         Clay(-1.0)
     with pytest.raises(SimConfigError, match=r"max_stretch=0.5"):
         Elastic(max_stretch=0.5)
+    with pytest.raises(SimConfigError, match=r"Elastic.model='rubber': unknown.*stress function"):
+        Elastic("rubber")
     config, body, design, state = block(2, n_grid=16)
-    with pytest.raises(SimConfigError, match="describe its first material"):
-        dataclasses.replace(config, max_stretch=2.0, materials=(Sand(),))
-    # A robot's own material stated both ways, and the terrain's after it: accepted.
-    dataclasses.replace(config, max_stretch=2.0, materials=(Elastic("fixed_corotated", 2.0), Sand()))
+    with pytest.raises(SimConfigError, match=r"SimConfig\(max_stretch=...\) is gone"):
+        dataclasses.replace(config, max_stretch=2.0)
+    with pytest.raises(SimConfigError, match="one or more litl.sim.materials models"):
+        dataclasses.replace(config, materials=())
     with pytest.raises(SimConfigError, match="litl.sim.materials models"):
         dataclasses.replace(config, materials=("sand",))
     two = dataclasses.replace(config, materials=(Elastic(), Sand()))

@@ -235,26 +235,28 @@ def test_polar_rotation_3d_is_a_rotation_with_finite_gradient_at_identity(x64):
         np.testing.assert_allclose(jnp.vdot(grad, direction), numeric, rtol=1e-6, atol=1e-8)
 
 
-def test_the_step_takes_its_stress_function():
-    """`make_step(..., stress=...)`: the named model passed explicitly changes nothing; a material
+def test_a_stress_law_of_ones_own_is_a_material():
+    """`Elastic(model=fn)`: the named model's function passed as one's own changes nothing; a law
     of one's own (here a stress-free one, which cannot hold the block up) changes the motion."""
+    from litl.sim import Elastic
     from litl.sim.constitutive import fixed_corotated
 
     config, body, design, state = block(2, n_grid=24, lower=0.3, size=0.2, gravity=-9.8, youngs=200.0)
     actuation = jnp.zeros(2, state.x.dtype)
     named = make_step(config, body)(state, actuation, design)[0]
-    explicit = make_step(config, body, stress=fixed_corotated)(state, actuation, design)[0]
+    own = config.with_own_material(Elastic(model=fixed_corotated))
+    explicit = make_step(own, body)(state, actuation, design)[0]
     # Two compilations of one program: equal to float32 rounding (bit for bit on a CPU).
     chex.assert_trees_all_close((named.x, named.F), (explicit.x, explicit.F), rtol=1e-6, atol=1e-7)
 
     def stress_free(F, mu, lam):
         return [[jnp.zeros_like(mu) for _ in row] for row in F]
 
-    rollout = lambda stress: jax.jit(make_rollout(config, body, lambda p, s, g: p, 300, stress=stress))(
-        actuation, design, state
-    )
-    solid, _ = rollout(None)
-    dust, _ = rollout(stress_free)
+    def rollout(c):
+        return jax.jit(make_rollout(c, body, lambda p, s, g: p, 300))(actuation, design, state)
+
+    solid, _ = rollout(config)
+    dust, _ = rollout(config.with_own_material(Elastic(model=stress_free)))
     # Without stress the block slumps onto the floor; the elastic one keeps its height.
     height = lambda final: float(jnp.max(final.x[:, 1]) - jnp.min(final.x[:, 1]))
     assert height(dust) < 0.8 * height(solid)
