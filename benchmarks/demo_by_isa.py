@@ -5,7 +5,7 @@
 
 Runs the README's quick demo (`python -m litl`, pictures off) once per set of XLA_FLAGS, each in a
 fresh process, and prints the final task loss it ends with, its wall time and this processor
-(`litl.provenance.processor`). The demo's co-design amplifies float32 rounding, so the last
+(`litl.records.provenance.processor`). The demo's co-design amplifies float32 rounding, so the last
 digits of its number tell apart programs that XLA compiled differently: flags that leave the
 number unchanged did not change the program on this processor. Compare the table across machines
 to see which digits hold.
@@ -24,7 +24,7 @@ import tempfile
 import time
 
 import litl  # noqa: F401  (as every benchmark: XLA's determinism flag, litl.backend)
-from litl import provenance
+from litl.records import provenance
 
 DEFAULT_FLAGS = (
     "",

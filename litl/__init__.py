@@ -38,7 +38,8 @@ _SUBPACKAGES = (
     "claims",
     "config",
     "errors",
-    "provenance",
+    "records",
+    "settings",
 )
 
 __all__ = [*_SUBPACKAGES, "__version__"]

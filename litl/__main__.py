@@ -22,11 +22,11 @@ from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 from litl.app import import_named_modules, run_experiment
+from litl.conf.schema import from_hydra, register_with_hydra
 from litl.errors import UserError, exit_on_user_error
-from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop.progress import say, set_label
 from litl.loop.run_directory import RunDirectoryError
-from litl.old_settings import translate_overrides
+from litl.settings.old import translate_overrides
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
@@ -74,7 +74,7 @@ def _remove_if_unused(run_dir: pathlib.Path) -> None:
 
 
 def main() -> None:
-    # Keys that moved keep working, with a word on their new name (`litl.old_settings.MOVED_KEYS`).
+    # Keys that moved keep working, with a word on their new name (`litl.settings.old.MOVED_KEYS`).
     sys.argv[1:], messages = translate_overrides(sys.argv[1:])
     for message in messages:
         say(f"litl: warning: {message}")

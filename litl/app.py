@@ -19,6 +19,7 @@ import litl.backend
 import litl.designs
 import litl.robots
 import litl.worlds
+from litl.conf.schema import from_hydra, register_with_hydra
 from litl.config import (
     RESOLUTIONS,
     Config,
@@ -26,12 +27,11 @@ from litl.config import (
     SettingsError,
     TaskKind,
 )
-from litl.hydra_schema import from_hydra, register_with_hydra
 from litl.loop.progress import say
-from litl.old_settings import chosen_kinds, sectioned_key, sectioned_message, translate_overrides
-from litl.registry import import_module
 from litl.robots.robot import Robot
 from litl.robots.tasks import Locomotion, Task
+from litl.settings.old import chosen_kinds, sectioned_key, sectioned_message, translate_overrides
+from litl.settings.registry import import_module
 
 
 def compose(overrides: Sequence[str] = ()) -> Config:
@@ -95,7 +95,7 @@ def import_named_modules(overrides: Sequence[str]) -> None:
 def section_keys(cause: BaseException | None) -> str:
     """For a key Hydra refused under an observer's or controller's section: which observer it
     is and its valid keys (Hydra names only the settings class)."""
-    from litl.registry import registry
+    from litl.settings.registry import registry
 
     key = str(getattr(cause, "full_key", "") or "")
     part, _, rest = key.partition(".")

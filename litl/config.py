@@ -14,8 +14,8 @@ The core's sections are robot, task, sim, loop, experiment and output. `observer
 are *parts*: a `kind` chosen among registered names, an optional `module` that registers a user's
 own, and one section per registered settings dataclass (``observer.vae``, ``observer.mine``),
 which each observer or controller declares with its registration (`litl.observers.register`,
-`litl.controllers.register`; `litl.registry`; the parts' machinery is `litl.parts`).
-`litl.hydra_schema` builds the Hydra schema from the same classes, so a typo, a wrong type or an
+`litl.controllers.register`; `litl.settings.registry`; the parts' machinery is `litl.settings.parts`).
+`litl.conf.schema` builds the Hydra schema from the same classes, so a typo, a wrong type or an
 unknown choice fails when the config is composed.
 
 Importing this module imports no JAX; building a `Config` imports the observers and controllers
@@ -30,10 +30,10 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
-from litl.parts import ControllerConfig, DesignConfig, ObserverConfig, OptimizerConfig, WorldConfig
-from litl.registry import registry
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
-from litl.trees import flatten, unflatten
+from litl.settings.parts import ControllerConfig, DesignConfig, ObserverConfig, OptimizerConfig, WorldConfig
+from litl.settings.registry import registry
+from litl.settings.trees import flatten, unflatten
 
 __all__ = [
     "Config",
@@ -571,11 +571,11 @@ def method_changes(method: str | Method) -> dict[str, Any]:
 
 
 # Names that lived here before observers and controllers owned their settings (2026-11-27), and
-# the old-spelling tables, which moved next to their readers (`litl.old_settings`).
+# the old-spelling tables, which moved next to their readers (`litl.settings.old`).
 _MOVED_NAMES = {
-    "hydra_schema": ("litl.hydra_schema", "hydra_schema"),
-    "register_with_hydra": ("litl.hydra_schema", "register_with_hydra"),
-    "from_hydra": ("litl.hydra_schema", "from_hydra"),
+    "hydra_schema": ("litl.conf.schema", "hydra_schema"),
+    "register_with_hydra": ("litl.conf.schema", "register_with_hydra"),
+    "from_hydra": ("litl.conf.schema", "from_hydra"),
     "AutoencoderConfig": ("litl.observers.autoencoder", "AutoencoderSettings"),
     "KMeansConfig": ("litl.observers.kmeans", "KMeansSettings"),
     "PCAConfig": ("litl.observers.pca", "PCASettings"),
@@ -586,15 +586,15 @@ _MOVED_NAMES = {
     "FeatureGradient": ("litl.controllers.mlp", "FeatureGradient"),
     "CLOCK_PERIOD": ("litl.controllers.mlp", "CLOCK_PERIOD"),
     "FEATURE_SCALE": ("litl.controllers.mlp", "FEATURE_SCALE"),
-    "MOVED_KEYS": ("litl.old_settings", "MOVED_KEYS"),
+    "MOVED_KEYS": ("litl.settings.old", "MOVED_KEYS"),
     "ContactKind": ("litl.worlds.terrain", "ContactKind"),
     "ObservedPart": ("litl.worlds.bodies", "ObservedPart"),
-    "FLAT_RUN_KEYS": ("litl.old_settings", "FLAT_RUN_KEYS"),
-    "current_key": ("litl.old_settings", "current_key"),
-    "recorded_settings": ("litl.old_settings", "recorded_settings"),
-    "translate_overrides": ("litl.old_settings", "translate_overrides"),
-    "upgrade": ("litl.old_settings", "upgrade"),
-    "moved_message": ("litl.old_settings", "moved_message"),
+    "FLAT_RUN_KEYS": ("litl.settings.old", "FLAT_RUN_KEYS"),
+    "current_key": ("litl.settings.old", "current_key"),
+    "recorded_settings": ("litl.settings.old", "recorded_settings"),
+    "translate_overrides": ("litl.settings.old", "translate_overrides"),
+    "upgrade": ("litl.settings.old", "upgrade"),
+    "moved_message": ("litl.settings.old", "moved_message"),
 }
 
 

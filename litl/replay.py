@@ -34,7 +34,7 @@ from typing import Any, cast
 
 from litl.config import Config, from_dict
 from litl.errors import UserError, exit_on_user_error
-from litl.old_settings import upgrade
+from litl.settings.old import upgrade
 
 
 class ReplayError(UserError, ValueError):
@@ -333,7 +333,7 @@ def _components(robot, algorithm, params, steps) -> dict:
 
 def recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
     """The loss the run recorded for the same parameters (None if it recorded none). A seed that
-    ended stuck reports its last good loss in final.json (`litl.stuck`); its final parameters'
+    ended stuck reports its last good loss in final.json (`litl.records.stuck`); its final parameters'
     own loss is `final_parameters_loss` there (also for a seed whose final parameters failed
     after a healthy last iteration)."""
     path = run_dir / f"{which}.json"

@@ -10,9 +10,10 @@ import warnings
 import pytest
 
 import litl
-from litl import backend, provenance
+from litl import backend
 from litl.backend import DeterminismError, configure, requested_mode
 from litl.loop.run import RunDirectoryError, run
+from litl.records import provenance
 from tests.loop.tiny import tiny_config, tiny_robot
 from tests.processes import child_environment
 
@@ -117,7 +118,7 @@ def test_the_run_directory_records_the_mode_and_a_resume_in_another_mode_says_so
     assert recorded["platform"] == backend.record()["platform"]
     assert FLAG in recorded["xla_flags"]
 
-    # run.json names the litl that made the run (litl.provenance); as if another commit had
+    # run.json names the litl that made the run (litl.records.provenance); as if another commit had
     # started it, the resume below also says so and records it.
     saved = json.loads((tmp_path / "run.json").read_text())
     assert saved["provenance"] == json.loads(json.dumps(provenance.record()))

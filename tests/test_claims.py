@@ -222,7 +222,7 @@ def test_a_quick_suite_runs_two_cells_at_once_resumes_and_writes_every_result(tm
     commit = run["provenance"]["commit"] or ""
     assert all(r["commit"] == commit and r["material"] == "elastic (no strain limit)" for r in rows)
     text = (out / "claims.md").read_text()
-    assert f"Made by {litl.provenance.describe(run['provenance'])}." in text
+    assert f"Made by {litl.records.provenance.describe(run['provenance'])}." in text
     assert "Material: elastic (no strain limit) (paper)." in text
     # Each cell's failures, time and origin.
     cell_rows = [line for line in text.splitlines() if line.startswith("| paper/fig4b/")]

@@ -27,10 +27,24 @@ FORBIDDEN = {
     "litl.observers": ("litl.loop", "litl.controllers"),
     "litl.controllers": ("litl.loop", "litl.observers"),
     # The settings' machinery is the bottom: what every section, registry and reader builds on.
-    "litl.settings": ("litl.config", "litl.registry", "litl.observers", "litl.controllers", "litl.loop"),
-    "litl.trees": ("litl.settings", "litl.config", "litl.registry", "litl.old_settings"),
-    "litl.registry": ("litl.config", "litl.observers", "litl.controllers", "litl.loop"),
-    "litl.old_settings": ("litl.config", "litl.registry", "litl.settings", "litl.loop"),
+    "litl.settings": (
+        "litl.config",
+        "litl.sim",
+        "litl.robots",
+        "litl.models",
+        "litl.observers",
+        "litl.controllers",
+        "litl.worlds",
+        "litl.optimizers",
+        "litl.designs",
+        "litl.loop",
+    ),
+    # Inside it: dotted trees below old spellings, the schema below registries below parts.
+    "litl.settings.trees": ("litl.settings.old", "litl.settings.registry", "litl.settings.parts"),
+    "litl.settings.old": ("litl.settings.registry", "litl.settings.parts"),
+    "litl.settings.registry": ("litl.settings.parts",),
+    # What runs' records mean is plain Python, read by the report and the claims without JAX.
+    "litl.records": ("litl.sim", "litl.robots", "litl.models", "litl.loop", "litl.report", "litl.claims"),
 }
 
 

@@ -13,7 +13,7 @@ import pytest
 from litl.app import compose
 from litl.config import Config, SettingsError, flatten, read_sections_only
 from litl.errors import UserError
-from litl.old_settings import MOVED_KEYS, translate_overrides, upgrade
+from litl.settings.old import MOVED_KEYS, translate_overrides, upgrade
 
 # The paper's value of every key where litl's default differs (the paper, Sec. 4 and Fig. 3:
 # the whole grid's velocities into a ReLU VAE, features only into the controller, gradients
@@ -186,7 +186,7 @@ def test_the_vaes_loss_weights_moved_to_its_own_section():
 def test_every_old_spelling_leads_to_a_key_of_today():
     """`MOVED_KEYS` and the flat run.json layout's `FLAT_RUN_KEYS` point straight at today's
     keys (a setting or a section), never at another old spelling."""
-    from litl.old_settings import FLAT_RUN_KEYS, current_key
+    from litl.settings.old import FLAT_RUN_KEYS, current_key
 
     today = set(settings(Config()))
     sections = {key.rsplit(".", 1)[0] for key in today}

@@ -54,7 +54,7 @@ def test_the_old_baseline_spellings_still_work_with_a_message():
     # cmaes never read the shared learning rate: said, not silently dropped.
     with pytest.raises(SettingsError, match="optimizer=cmaes has no 'learning_rate'; it is a key of"):
         compose(["baseline=cmaes", "baseline.learning_rate=0.1"])
-    from litl.old_settings import upgrade
+    from litl.settings.old import upgrade
 
     old = {"kind": "cmaes", "population": 4, "generations": 2, "sigma": 0.1, "learning_rate": 0.03}
     assert upgrade({"baseline": old})["optimizer"] == {

@@ -11,8 +11,8 @@ import subprocess
 import pytest
 
 import litl
-from litl import provenance
 from litl.loop.run_directory import RunDirectoryError, claim
+from litl.records import provenance
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 

@@ -6,8 +6,8 @@ import enum
 
 import pytest
 
-from litl.registry import Registry
 from litl.settings import Settings, SettingsError
+from litl.settings.registry import Registry
 
 
 class Colour(enum.StrEnum):

@@ -1,4 +1,4 @@
-"""`litl.stuck`: a seed whose last iterations were skipped reports its last good task loss, marked
+"""`litl.records.stuck`: a seed whose last iterations were skipped reports its last good task loss, marked
 stuck; the report's final values and windows follow the same rule, and a run that never sticks
 is reported exactly as before."""
 
@@ -8,10 +8,10 @@ import pathlib
 import numpy as np
 import pytest
 
+from litl.records.stuck import seed_end, seed_ends, shown
 from litl.report.runs import Group, Run
 from litl.report.stats import final_values, final_window_values, series_ends
 from litl.report.summary import summarize, summary_markdown
-from litl.stuck import seed_end, seed_ends, shown
 
 
 def record(step, loss, skipped=None, seed=0):

@@ -22,7 +22,7 @@ from litl.report.stats import confidence_band
 @dataclasses.dataclass(frozen=True)
 class Estimate:
     """A mean over seeds with its two-sided interval; `stuck`: how many of the `n` seeds ended
-    stuck and count with their last good loss (`litl.stuck`; None: not known, re-judged from a
+    stuck and count with their last good loss (`litl.records.stuck`; None: not known, re-judged from a
     claims.csv without the count)."""
 
     mean: float

@@ -2,7 +2,7 @@
 
 A verdict compares final task losses; how many seeds got there cleanly is a result too (the paper
 reports k-means failing in 4 of 10 runs). Per cell: seeds with a final loss, seeds that ended
-stuck (their last iterations skipped: `litl.stuck`), iterations skipped (a rollout that escaped the
+stuck (their last iterations skipped: `litl.records.stuck`), iterations skipped (a rollout that escaped the
 grid or went non-finite, or a non-finite gradient: nothing of them was kept), iterations stepped
 back (litl's step-back safeguard retook them at half the step), its wall time (`timings.json`),
 and the commit and material that made it (`litl.claims.origins`).
@@ -17,8 +17,8 @@ import numpy as np
 
 from litl.claims.origins import Origin, material, platform
 from litl.claims.verdicts import final_losses, stuck_seeds
+from litl.records.stuck import skipped
 from litl.report.runs import Group
-from litl.stuck import skipped
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from litl.claims.estimates import Estimate, falling
 from litl.claims.rules import ALPHA, NEEDS_RUNS, POWER
 from litl.claims.verdicts import CLAIMS, Verdict
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 
 # The paper's appendix (its hyperparameters) was not available: method=paper is litl's reading of
 # the paper's text, so a verdict under it is about that reading (docs/guide/method.md).

@@ -16,9 +16,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from litl import backend as backend_module
-from litl import provenance
 from litl.claims.suite import Cell, ClaimsError, expected_records, finished_records
 from litl.config import Config
+from litl.records import provenance
 
 
 @dataclasses.dataclass(frozen=True)

@@ -27,7 +27,7 @@ from litl.claims.rules import NEEDS_RUNS
 from litl.claims.stats import Summary, sd_from_interval, welch
 from litl.claims.suite import ClaimsError
 from litl.claims.verdicts import CLAIMS, Claim, Verdict, compare, from_judgement, with_holm
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 
 # The columns re-judging reads (a claims.csv of 2026-11-26 or later has them all).
 REQUIRED = (

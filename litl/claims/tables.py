@@ -17,7 +17,7 @@ from litl.claims.origins import Origin, material
 from litl.claims.suite import PANELS, Cell, expected_records, finished_records
 from litl.claims.verdicts import CLAIMS, Verdict, judge, retraining_effects, with_holm
 from litl.config import Config
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 from litl.report import figures
 from litl.report.runs import Group, load_run
 from litl.report.stats import curves, table1
@@ -52,7 +52,7 @@ CSV_FIELDS = (
     "margin",
     "detectable",
     "gap_below_detectable",
-    # Seeds that ended stuck, counted with their last good loss (litl.stuck).
+    # Seeds that ended stuck, counted with their last good loss (litl.records.stuck).
     "a_stuck",
     "b_stuck",
     # The cut check (litl.claims.cuts): the verdict at the cut, and the slopes at the end.

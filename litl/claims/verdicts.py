@@ -22,7 +22,7 @@ claim and method (the test its verdict rests on); `Verdict.holm_verdict`, the ve
 survives the correction, is the table's primary verdict. Each comparison also reports its 95%
 interval and the smallest difference its seeds could have detected with 80% power.
 
-A seed that ended stuck (its last iterations skipped: `litl.stuck`) counts with its last good
+A seed that ended stuck (its last iterations skipped: `litl.records.stuck`) counts with its last good
 iterations (the window up to its last good one), and each side says how many did
 (`Estimate.stuck`). Whether a verdict depends on where its runs were cut, or rests on curves
 still falling at the end: `litl.claims.cuts`. Re-judging a published claims.csv, whose runs were
@@ -246,7 +246,7 @@ def welch_p_lower(a: ArrayLike, b: ArrayLike) -> float:
 
 def final_losses(group: Group) -> np.ndarray:
     """(seeds,) each seed's final task loss (mean of its last FINAL_WINDOW iterations; for a seed
-    that ended stuck, of those up to its last good one: `litl.stuck`)."""
+    that ended stuck, of those up to its last good one: `litl.records.stuck`)."""
     return final_window_values(group, "task_loss", FINAL_WINDOW)
 
 

@@ -1,7 +1,7 @@
 """The controller interface: what maps the observer's features to actuation, registered by name.
 
 A controller is made by a factory registered with its own settings dataclass (`register`;
-`litl.registry`), called as `factory(robot, settings, context)`; `controller.kind` (the CLI's
+`litl.settings.registry`), called as `factory(robot, settings, context)`; `controller.kind` (the CLI's
 `controller=`) picks one and `controller.<name>.<key>` sets its settings. It returns a
 `Controller`: a Flax module (``init(key, features, time=...)``, ``apply(params, features,
 time=...)`` -> (n_actuators,) in [-1, 1]) and whether the task loss's gradient flows through the
@@ -13,8 +13,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from litl.registry import Registry, registry
 from litl.settings import Settings
+from litl.settings.registry import Registry, registry
 
 
 @dataclasses.dataclass(frozen=True)

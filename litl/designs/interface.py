@@ -1,4 +1,4 @@
-"""The design spaces' registry by name (`litl.registry`): `register`, `names`, `apply`.
+"""The design spaces' registry by name (`litl.settings.registry`): `register`, `names`, `apply`.
 
 A design space says what co-design changes about a robot's body: its factory is
 ``factory(robot, settings, context) -> DesignSpace-like`` (the object `Robot.design_space`
@@ -13,9 +13,9 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from litl.registry import Registry, registry
 from litl.robots.robot import Robot
 from litl.settings import Settings
+from litl.settings.registry import Registry, registry
 
 Factory = Callable[..., Any]
 

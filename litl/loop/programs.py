@@ -38,8 +38,8 @@ import numpy as np
 
 from litl.config import AlgorithmSettings
 from litl.loop.algorithm import make_algorithm
-from litl.registry import registry
 from litl.robots.robot import Robot
+from litl.settings.registry import registry
 
 SWITCH = "LITL_PROGRAM_CACHE"
 DEFAULT_SIZE = 4

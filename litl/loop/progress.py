@@ -25,7 +25,7 @@ from typing import TextIO
 import numpy as np
 
 # One number format for the status line and the report: significant digits, never "-0".
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 
 _LABEL = ""
 

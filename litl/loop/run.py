@@ -16,7 +16,7 @@ writes into the run directory (whose pieces, shared with the baselines, are
 * `checkpoints/<episodes done>/`: orbax checkpoints at every episode boundary;
 * `final/`: the final parameters of every seed (controller, design, observer), and `final.json`
   their task loss per seed (a forward simulation after the last update); a seed whose last
-  iterations were skipped is marked stuck and has its last good task loss there (`litl.stuck`);
+  iterations were skipped is marked stuck and has its last good task loss there (`litl.records.stuck`);
 * `best/` and `best.json`: the parameters of each seed's best rollout, its task loss and iteration.
 
 An iteration whose rollout blew up, lost particles or gave a non-finite loss or gradient changes

@@ -27,14 +27,15 @@ import jax
 import numpy as np
 import orbax.checkpoint as ocp
 
-from litl import backend, provenance
+from litl import backend
 from litl.config import Config, RunContext, flatten, read_sections_only
 from litl.errors import UserError
 from litl.loop.algorithm import Best, LoopState, make_algorithm, stack_seeds
 from litl.loop.progress import say
-from litl.old_settings import upgrade
+from litl.records import provenance
+from litl.records.stuck import seed_ends
 from litl.robots.robot import Robot
-from litl.stuck import seed_ends
+from litl.settings.old import upgrade
 
 
 class RunDirectoryError(UserError, ValueError):
@@ -215,7 +216,7 @@ def save_best(run_dir: pathlib.Path, state: LoopState, seeds):
 def save_final_losses(run_dir: pathlib.Path, losses, seeds, records):
     """final.json: the task loss of each seed's final parameters (one more forward simulation;
     `python -m litl.replay` reproduces it). A seed whose last iterations were skipped is stuck
-    (`litl.stuck`): its task_loss is its last good one, with ``"stuck": true``,
+    (`litl.records.stuck`): its task_loss is its last good one, with ``"stuck": true``,
     skipped_at_end, last_good_step and final_parameters_loss (what the forward simulation of
     its final parameters gave; null: not finite). A seed whose last iteration was healthy but
     whose final parameters (after that iteration's update) fail in this forward simulation keeps

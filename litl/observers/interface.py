@@ -11,7 +11,7 @@ A learned observer also has a `Learner`: the grid window its snapshots are cropp
 phase (returning its statistics: a mapping of named values), how those statistics are written,
 its single SGD step (the simultaneous ablation) and, where it has one, its reconstruction. Any
 observer may draw its own pictures of a finished run (`Observer.pictures`). Observers are made by
-factories registered by name with their own settings dataclass (`register`; `litl.registry`);
+factories registered by name with their own settings dataclass (`register`; `litl.settings.registry`);
 `observer.kind` (`litl.config.ObserverConfig`, the CLI's `observer=`) picks one, and
 `observer.<name>.<key>` sets its settings. A factory is called as `factory(robot, settings,
 context)`: its settings section and an `ObserverContext` (the simulator's config, the dtype and
@@ -26,8 +26,8 @@ import enum
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from litl.registry import Registry, registry
 from litl.settings import Settings
+from litl.settings.registry import Registry, registry
 
 if TYPE_CHECKING:
     import jax

@@ -1,4 +1,4 @@
-"""The optimization methods' registry by name (`litl.registry`): `register`, `names`, `make`.
+"""The optimization methods' registry by name (`litl.settings.registry`): `register`, `names`, `make`.
 
 An optimization method (``optimizer=<name>``) is what changes the controller and the design:
 litl's loop (Algorithm 1, `litl.optimizers.loop`), or an evolution strategy or PPO
@@ -17,8 +17,8 @@ from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 from litl.config import RunContext
-from litl.registry import Registry, registry
 from litl.settings import Settings
+from litl.settings.registry import Registry, registry
 
 # What a method reads besides its own settings (`litl.config.RunContext`), under the name the
 # methods written before it held Algorithm 1's settings apart (they read `context.config`) import.

@@ -11,8 +11,8 @@ from litl.config import RunContext
 from litl.loop import run_loop
 from litl.loop.progress import say
 from litl.loop.run_directory import RunDirectoryLock
+from litl.records.stuck import seed_ends, shown
 from litl.robots.robot import Robot
-from litl.stuck import seed_ends, shown
 
 
 class LoopOptimizer:
@@ -52,7 +52,7 @@ class LoopOptimizer:
 
 def say_final_losses(metrics: list[dict], seeds: list[int], run_dir: pathlib.Path) -> None:
     """The final task loss per seed; a seed whose last iterations were skipped reports its last
-    good loss, marked, and is said to have ended stuck (`litl.stuck`)."""
+    good loss, marked, and is said to have ended stuck (`litl.records.stuck`)."""
     ends = seed_ends(metrics)
     shown_losses = ", ".join(shown(ends[seed]) if seed in ends else "n/a" for seed in seeds)
     say(f"litl: final task loss per seed [{shown_losses}]; results in {run_dir}")

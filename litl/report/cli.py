@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from litl.errors import exit_on_user_error
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 from litl.report.summary import unjudged_reason, write_report
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 from litl.config import Config, LoopConfig, Method, flatten
 from litl.errors import UserError
-from litl.old_settings import current_key, recorded_settings
+from litl.settings.old import current_key, recorded_settings
 
 _METHOD = LoopConfig()
 # The ablation switches: named in a run's label only when the run departs from their default
@@ -52,7 +52,7 @@ CORE_SHORT_NAMES = (
 def short_names() -> dict[str, str]:
     """Short names of settings in run labels: the core's, and each registered observer's and
     controller's fields with ``short`` metadata (``observer.vae.latent_dim``: r)."""
-    from litl.registry import registry
+    from litl.settings.registry import registry
 
     names = dict(CORE_SHORT_NAMES)
     for part in ("observer", "controller"):
@@ -65,8 +65,8 @@ def short_names() -> dict[str, str]:
 
 def head_rank(head: str) -> tuple[int, str]:
     """Where reports list runs headed by `head`: observers, then open-loop controllers, each in
-    registration order (`litl.registry`); unregistered names last."""
-    from litl.registry import registry
+    registration order (`litl.settings.registry`); unregistered names last."""
+    from litl.settings.registry import registry
 
     observers, controllers = registry("observer"), registry("controller")
     entry = observers.find(head)
@@ -137,8 +137,8 @@ class Run:
         """What heads the run's label: an optimization method's name other than litl's loop
         (``"cmaes"``), else what feeds the controller: the observer, or an open-loop controller's
         name (``"sinusoid"``)."""
-        from litl.parts import OptimizerConfig
-        from litl.registry import registry
+        from litl.settings.parts import OptimizerConfig
+        from litl.settings.registry import registry
 
         default = OptimizerConfig().kind
         optimizer = str(self.config.get("optimizer.kind", default))

@@ -12,8 +12,8 @@ from numpy.typing import ArrayLike
 # scipy comes with jax (one of its requirements), so it costs litl no extra dependency.
 from scipy.special import stdtrit
 
+from litl.records.stuck import SeedEnd, seed_end
 from litl.report.runs import Group
-from litl.stuck import SeedEnd, seed_end
 
 
 def t_quantile(probability: float, dof: ArrayLike) -> np.ndarray:
@@ -91,7 +91,7 @@ def series(group: Group, key: str = "task_loss") -> tuple[np.ndarray, np.ndarray
 
 
 def series_ends(group: Group) -> list[tuple[int, SeedEnd]]:
-    """How each seed of a group ended (`litl.stuck.SeedEnd`: stuck or not, its last good
+    """How each seed of a group ended (`litl.records.stuck.SeedEnd`: stuck or not, its last good
     iteration) with the index of its run in `group.runs`, one per row of `series`, in its order."""
     rows: dict[tuple[int, int], list[dict[str, Any]]] = {}
     for index, run in enumerate(group.runs):
@@ -105,7 +105,7 @@ def series_ends(group: Group) -> list[tuple[int, SeedEnd]]:
 
 def final_values(group: Group, key: str = "task_loss") -> np.ndarray:
     """(n_series,) each seed's value at its last recorded step (NaN if missing there); for a
-    seed that ended stuck (`litl.stuck`: its last iterations skipped), at its last good step.
+    seed that ended stuck (`litl.records.stuck`: its last iterations skipped), at its last good step.
 
     Rows are ordered as in `series`.
     """
@@ -123,7 +123,7 @@ def final_values(group: Group, key: str = "task_loss") -> np.ndarray:
 
 def final_window_values(group: Group, key: str = "task_loss", last: int = 10) -> np.ndarray:
     """(n_series,) each seed's mean over its last `last` iterations (skipped ones left out); for
-    a seed that ended stuck (`litl.stuck`), over the `last` iterations up to its last good one.
+    a seed that ended stuck (`litl.records.stuck`), over the `last` iterations up to its last good one.
 
     Less noisy than the last iteration alone; NaN for a seed with no finite value there. Rows
     are ordered as in `series`.

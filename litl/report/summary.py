@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from litl.formatting import format_number
+from litl.records.formatting import format_number
 from litl.report import figures
 from litl.report.roundoff import hardly_moved, threshold
 from litl.report.runs import Group, ReportError, Run, group_runs, load_runs
@@ -113,7 +113,7 @@ def _health_notes(group: Group, source: pathlib.Path) -> list[str]:
 
 
 def _stuck(group: Group, source: pathlib.Path) -> tuple[list[dict[str, Any]], list[str]]:
-    """The seeds of `group` that ended stuck (`litl.stuck`: their last iterations skipped),
+    """The seeds of `group` that ended stuck (`litl.records.stuck`: their last iterations skipped),
     with `per_seed_index` their place in `per_seed`, and a note for each."""
     stuck, notes = [], []
     for row, (index, end) in enumerate(series_ends(group)):
@@ -272,7 +272,7 @@ def summarize(runs: list[Run], groups: list[Group], source: pathlib.Path, level:
     """The numbers of a report, as stored in `summary.json` (figures are added by the caller).
 
     Each group's final task loss has its mean and Student-t interval at `level` (low, high,
-    half_width: None with fewer than two seeds); a seed that ended stuck (`litl.stuck`) counts
+    half_width: None with fewer than two seeds); a seed that ended stuck (`litl.records.stuck`) counts
     with its last good loss and is listed in the group's `stuck` (absent when none is). `best`
     names, per robot, the label with the
     lowest mean final task loss: `compared` (labels with a final task loss),

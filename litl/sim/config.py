@@ -23,7 +23,8 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any, Literal
 
-from litl.errors import UserError
+from litl.sim.errors import SimConfigError as SimConfigError
+from litl.sim.errors import is_stretch_bound as is_stretch_bound
 from litl.sim.materials import Elastic
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
@@ -33,23 +34,8 @@ WALL_KINDS = ("sticky", "slip", "friction", "open")
 BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
 
 
-class SimConfigError(UserError, ValueError):
-    """A simulator setting (`SimConfig`, a wall, a robot's scene) is invalid; the message says
-    which and how to fix it. (Not `litl.config.SettingsError`, which names a setting of a run.)"""
-
-
 # The name before issue 39 (it read like the settings' error): kept, `litl.sim` exported it.
 ConfigError = SimConfigError
-
-
-def is_stretch_bound(value: object) -> bool:
-    """Whether `value` can bound a particle's principal stretch (the strain limit): a finite number
-    above 1, not a bool. The one check of a limit's value; "no limit" is spelled None inside the
-    simulator (`SimConfig.max_stretch`) and inf only at the edges (`litl.robots.Material`, the
-    command line's `robot.material.max_stretch=inf`)."""
-    return (
-        isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 1
-    )
 
 
 @dataclasses.dataclass(frozen=True)

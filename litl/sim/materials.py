@@ -36,6 +36,7 @@ import jax.numpy as jnp
 
 from litl.sim import linalg
 from litl.sim.constitutive import CONSTITUTIVE_MODELS, ConstitutiveModel
+from litl.sim.errors import SimConfigError, is_stretch_bound
 from litl.sim.stretch import limit_stretch
 
 Values = Callable[[list], list]
@@ -81,8 +82,6 @@ class Elastic:
     max_stretch: float | None = None
 
     def __post_init__(self) -> None:
-        from litl.sim.config import SimConfigError, is_stretch_bound
-
         if not (callable(self.model) or self.model in CONSTITUTIVE_MODELS):
             raise SimConfigError(
                 f"Elastic.model={self.model!r}: unknown; choose one of {sorted(CONSTITUTIVE_MODELS)} "
@@ -122,8 +121,6 @@ class Sand:
     friction_angle: float = 30.0
 
     def __post_init__(self) -> None:
-        from litl.sim.config import SimConfigError
-
         phi = self.friction_angle
         if not (isinstance(phi, (int, float)) and not isinstance(phi, bool) and 0 < phi < 90):
             raise SimConfigError(
@@ -164,8 +161,6 @@ class Clay:
     yield_stress: float
 
     def __post_init__(self) -> None:
-        from litl.sim.config import SimConfigError
-
         y = self.yield_stress
         if not (isinstance(y, (int, float)) and not isinstance(y, bool) and math.isfinite(y) and y > 0):
             raise SimConfigError(f"Clay.yield_stress={y!r}: must be a finite number > 0")

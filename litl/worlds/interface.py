@@ -1,4 +1,4 @@
-"""The worlds' registry by name (`litl.registry`): `register`, `names`, `put`.
+"""The worlds' registry by name (`litl.settings.registry`): `register`, `names`, `put`.
 
 A world is a factory ``factory(robot, settings, context) -> Robot``: the robot in that world
 (terrain added to its scene's colliders, or a second body beside it), which returns a robot
@@ -14,10 +14,10 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from litl.registry import Registry, registry
 from litl.robots.robot import Robot
 from litl.robots.tasks import Task
 from litl.settings import Settings
+from litl.settings.registry import Registry, registry
 
 Factory = Callable[..., Robot]
 

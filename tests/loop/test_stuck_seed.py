@@ -1,4 +1,4 @@
-"""A seed that ends stuck at its last good parameters still has a result (`litl.stuck`): the
+"""A seed that ends stuck at its last good parameters still has a result (`litl.records.stuck`): the
 final line, final.json, the report and the claims tables give its last good loss, marked stuck;
 the seed beside it is reported as before."""
 

@@ -9,8 +9,8 @@ import pytest
 import litl.worlds
 from litl.app import build_robot, compose
 from litl.config import SettingsError
-from litl.old_settings import upgrade
 from litl.settings import Settings
+from litl.settings.old import upgrade
 from tests.guide import guide_block
 
 LEDGE_MODULE = guide_block("robots.md", "# my_worlds.py")

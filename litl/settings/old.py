@@ -15,7 +15,7 @@ import warnings
 from collections.abc import Iterable
 from typing import Any
 
-from litl.trees import flatten, unflatten
+from litl.settings.trees import flatten, unflatten
 
 MOVED_KEYS = {
     "observer.latent_dim": "observer.vae.latent_dim",

@@ -4,7 +4,7 @@ optimization method.
 A part has a `kind` (a registered name), an optional `module` (imported first: it registers a
 user's own) and one settings section per registered settings dataclass, read as attributes
 (``config.observer.vae``) and written as keys (``observer.vae.latent_dim=4``); each observer and
-controller declares its section's dataclass when it registers (`litl.registry`). run.json records
+controller declares its section's dataclass when it registers (`litl.settings.registry`). run.json records
 the chosen kind's section only (`PartConfig.record`).
 """
 
@@ -15,8 +15,8 @@ import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from litl.registry import import_module, registry
 from litl.settings import Settings, SettingsError, json_safe
+from litl.settings.registry import import_module, registry
 
 
 class PartConfig(Settings):
@@ -79,7 +79,7 @@ class PartConfig(Settings):
         return dict(self.sections).get(registry(self.PART).get(self.kind).section)
 
     def replace(self, **changes: Any) -> Any:
-        from litl.old_settings import moved_changes
+        from litl.settings.old import moved_changes
 
         changes = moved_changes(self.KEY, changes)
         own = {f.name for f in dataclasses.fields(self)} - {"sections"}
@@ -212,7 +212,7 @@ class WorldConfig(PartConfig):
     def replace(self, **changes: Any) -> Any:
         """As `PartConfig.replace`; the keys of the world's section before worlds were parts
         (``replace(kind="slope", angle=15)``) go to the chosen world's section, with a warning."""
-        from litl.old_settings import OLD_SECTIONS, sectioned_key, sectioned_message
+        from litl.settings.old import OLD_SECTIONS, sectioned_key, sectioned_message
 
         old = [key for key in changes if key in OLD_SECTIONS["world"][1]]
         if old:

@@ -15,7 +15,14 @@ when it is built, and then `check`ed; every error names the key as typed on the 
 Observers and controllers declare such a class with their registration
 (`litl.observers.register(name, factory, settings=MySettings)`); `litl.config` holds the sections
 the core owns (robot, sim, loop, output). This module imports neither JAX nor the rest of litl;
-old spellings of keys are `litl.old_settings`'s, dotted trees `litl.trees`'.
+old spellings of keys are `litl.settings.old`'s, dotted trees `litl.settings.trees`'.
+
+The package is the settings' machinery, the bottom layer every section, registry and reader
+builds on: this schema; `litl.settings.registry`, registries by name (how an observer, a
+controller, a world, a method or a design space becomes selectable); `litl.settings.parts`, the
+parts of the config that registries fill; `litl.settings.trees`, nested dicts and dotted keys;
+`litl.settings.old`, old spellings. Hydra's view of the config is `litl.conf.schema`, beside
+its YAML groups.
 """
 
 from __future__ import annotations
@@ -164,7 +171,7 @@ class Settings:
     def replace(self, **changes: Any) -> Self:
         """A copy with `changes`; a dict for a nested section changes only the keys it names:
         ``config.replace(loop={"episodes": 3}, seeds=2)``."""
-        from litl.old_settings import moved_changes
+        from litl.settings.old import moved_changes
 
         changes = moved_changes(self.KEY, changes)
         fields = {f.name for f in dataclasses.fields(self)}

@@ -13,9 +13,9 @@ from dataclasses import field
 from typing import Any
 
 from litl.config import Config
-from litl.parts import PartConfig
-from litl.registry import registry
 from litl.settings import Settings, from_dict
+from litl.settings.parts import PartConfig
+from litl.settings.registry import registry
 
 
 def hydra_schema(kind: type[Settings] = Settings) -> type:
