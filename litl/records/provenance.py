@@ -54,7 +54,7 @@ def checkout(root: pathlib.Path | None = None) -> tuple[str | None, bool | None]
     (None, None) where litl is not in one (a pip-installed copy) or git is not available.
     `dirty`: tracked files differ from the commit (untracked files, such as run outputs, do not
     count)."""
-    root = pathlib.Path(__file__).resolve().parent.parent if root is None else root
+    root = pathlib.Path(__file__).resolve().parents[2] if root is None else root
     if not (root / ".git").exists():  # a checkout's root (.git is a file in a worktree)
         return None, None
     try:
