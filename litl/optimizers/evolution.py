@@ -1,5 +1,9 @@
 """Evolution strategies (evosax) on what litl's gradients optimize: the controller network θ and the
-design φ (Young's modulus per region, in units of its range, kept in its bounds).
+design φ, in the design space of the run (`design=`): the Young's modulus per region in units of its
+range, and, for the body's spaces, each particle's occupancy (in [0, 1]) and its actuator logits
+(in units of their starting sharpness), each kept in its bounds as the loop keeps it
+(`DesignUnits`). The design's costs (volume, grayness) count in a candidate's fitness as in the
+loop's loss.
 
 ``cmaes``: CMA-ES with evosax's defaults but the initial step size `sigma` (its covariance is n x n
 for n parameters, decomposed every generation: at the biped's MLP, n = 6152, a generation takes
@@ -97,6 +101,74 @@ def _strategy(kind: str, settings: EvolutionSettings, template):
     return strategy, params.replace(std_init=jnp.asarray(settings.sigma, params.std_init.dtype))
 
 
+@dataclass(frozen=True)
+class DesignUnits:
+    """The design φ in the units an evolution strategy searches, and back.
+
+    The Young's modulus per region in units of its range (0: E_min, 1: E_max); a body space's
+    occupancy as it is (in [0, 1]); its actuator logits over their starting sharpness (the
+    robot's own channel starts at 1). Coming back, each is kept in its bounds as the loop's
+    projection keeps it (the modulus and occupancy clipped, the logits free). What the search does
+    not move (a growing projection's sharpness, a schedule) is kept as it started (`fixed`).
+    """
+
+    low: float
+    high: float
+    sharpness: float = 1.0
+    body: bool = False  # φ is a body space's dict (`litl.designs.body.BodySpace`)
+
+    @classmethod
+    def of(cls, space, kind: str) -> DesignUnits:
+        from litl.designs.body import BodySpace
+        from litl.robots.design import DesignSpace
+
+        low, high = space.bounds
+        if isinstance(space, BodySpace):
+            sharpness = space.placement.sharpness if space.placement is not None else 1.0
+            return cls(float(low), float(high), float(sharpness), body=True)
+        if isinstance(space, DesignSpace):
+            return cls(float(low), float(high))
+        raise SettingsError(
+            f"optimizer={kind} searches litl's design spaces (modulus, actuators, geometry, all), "
+            f"not {type(space).__name__}, whose units it does not know; use optimizer=litl",
+            "design.kind",
+        )
+
+    def _modulus(self, youngs):
+        return (youngs - self.low) / (self.high - self.low)
+
+    def _youngs(self, unit):
+        return self.low + jnp.clip(unit, 0.0, 1.0) * (self.high - self.low)
+
+    def to_unit(self, phi):
+        if not self.body:
+            return self._modulus(phi)
+        unit = {}
+        if "youngs_modulus" in phi:
+            unit["youngs_modulus"] = self._modulus(phi["youngs_modulus"])
+        if "occupancy" in phi:
+            unit["occupancy"] = phi["occupancy"]
+        if "placement" in phi:
+            unit["placement"] = phi["placement"] / self.sharpness
+        return unit
+
+    def fixed(self, phi):
+        """What of φ the search keeps as it started ({} for the modulus)."""
+        return {"projection": phi["projection"]} if self.body and "projection" in phi else {}
+
+    def from_unit(self, unit, fixed):
+        if not self.body:
+            return self._youngs(unit)
+        phi = dict(fixed)
+        if "youngs_modulus" in unit:
+            phi["youngs_modulus"] = self._youngs(unit["youngs_modulus"])
+        if "occupancy" in unit:
+            phi["occupancy"] = jnp.clip(unit["occupancy"], 0.0, 1.0)
+        if "placement" in unit:
+            phi["placement"] = unit["placement"] * self.sharpness
+        return phi
+
+
 class EvolutionStrategy:
     """`litl.optimizers.rounds.Method` for cmaes, sep_cmaes and openai_es: a round is one
     generation."""
@@ -110,45 +182,42 @@ class EvolutionStrategy:
                 f"observer=none",
                 "observer.kind",
             )
-        if robot.design is not None:
-            raise SettingsError(
-                f"optimizer={kind} searches the Young's modulus per region (design=modulus), not "
-                f"the design space {type(robot.design_space).__name__}; use design=modulus, or "
-                f"optimizer=litl for the others",
-                "design.kind",
-            )
+        space = robot.design_space
+        units = DesignUnits.of(space, kind)
         self.name = kind
         self.rounds = settings.generations
         self.seeds = context.seed_ids
         self._per_generation = settings.population + 1
         starts = [algorithm.init(seed) for seed in self.seeds]
-        # The design in units of its range (0: E_min, 1: E_max), so that one step size suits it
-        # and the controller's weights alike.
-        low, high = robot.design_space.bounds
-        normalized = [(s.design - low) / (high - low) for s in starts]
+        # The design in units that one step size suits, as it suits the controller's weights.
+        normalized = [units.to_unit(s.design) for s in starts]
+        fixed = [units.fixed(s.design) for s in starts]
         strategy, params = _strategy(kind, settings, (starts[0].controller, normalized[0]))
         stack = lambda trees: jax.tree.map(lambda *leaves: jnp.stack(leaves), *trees)  # seeds first
-        self._observers = stack([s.observer for s in starts])
+        self._observers = stack([(s.observer, f) for s, f in zip(starts, fixed, strict=True)])
         self._means = stack([(s.controller, u) for s, u in zip(starts, normalized, strict=True)])
 
-        def fitness(solution, observer):
+        def fitness(solution, seed_inputs):
+            observer, kept = seed_inputs
             controller, design = solution
-            loss, _ = algorithm.simulate(
-                controller, low + jnp.clip(design, 0.0, 1.0) * (high - low), observer
-            )
+            loss, _ = algorithm.simulate(controller, units.from_unit(design, kept), observer)
             return jnp.where(jnp.isfinite(loss), loss, jnp.inf)
 
-        def generation(key, state, observer):
+        def generation(key, state, seed_inputs):
             ask_key, tell_key = jax.random.split(key)
             population, state = strategy.ask(ask_key, state, params)
-            losses = jax.vmap(fitness, in_axes=(0, None))(population, observer)
-            mean_loss = fitness(strategy.get_mean(state), observer)
+            losses = jax.vmap(fitness, in_axes=(0, None))(population, seed_inputs)
+            mean = strategy.get_mean(state)
+            mean_loss = fitness(mean, seed_inputs)
             state, _ = strategy.tell(tell_key, population, losses, state, params)
             finite_mean = jnp.mean(jnp.where(jnp.isfinite(losses), losses, jnp.nan))
+            # The mean's design as the loop reports its own (placement/..., geometry/...).
+            figures = space.summary(units.from_unit(mean[1], seed_inputs[1]))
             return state, {
                 "task_loss": mean_loss,
                 "population_best": jnp.min(losses),
                 "population_mean": finite_mean,
+                **figures,
             }
 
         def advance(keys, states, observers):
