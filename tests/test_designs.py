@@ -265,6 +265,50 @@ def test_a_volume_above_its_fraction_costs_and_the_geometry_sheds_it(tmp_path):
     assert np.isfinite([r["task_loss"] for r in result.metrics]).all()
 
 
+def test_a_learning_phase_reclusters_k_means_on_the_body_as_it_is_now():
+    """observer.kmeans.recluster=true: the phase refits the clusters to the current design's
+    material (here the front half of the body removed: every cluster moves behind it) and says
+    how much material changed cluster; without it (the paper's baseline) the clusters stay."""
+    from litl.models.kmeans import fit_kmeans
+
+    robot = tiny_robot()
+    rest = np.asarray(robot.own(robot.initial_state()).x)
+    front = rest[:, 0] > np.median(rest[:, 0])
+    for recluster in (True, False):
+        config = tiny_config(
+            observer={"kind": "kmeans", "kmeans": {"clusters": 3, "recluster": recluster}},
+            design={"kind": "geometry"},
+        )
+        placed = litl.designs.apply(robot, config.design)
+        algorithm = make_algorithm(placed, config.algorithm)
+        state = algorithm.init(0)
+        removed = jnp.where(jnp.asarray(front), 0.0, state.design["occupancy"])
+        state = state.replace(design={**state.design, "occupancy": removed})
+        learned, stats = jax.jit(algorithm.learn)(state)
+        centers = np.asarray(learned.observer.centers)
+        if recluster:
+            behind = rest[~front, 0].max()
+            assert (centers[:, 0] <= behind + 1e-6).all() and float(stats["kmeans/relabelled"]) > 0.1
+            # Material once removed (its filtered density near the cut aside) counts in no cluster.
+            assert float(np.asarray(learned.observer.averaging)[:, front].sum()) < 0.2
+        else:
+            assert "kmeans/relabelled" not in stats
+            np.testing.assert_array_equal(centers, np.asarray(fit_kmeans(rest, 3, seed=0).centers))
+
+
+def test_k_means_that_reclusters_records_it_in_every_learning_phase(tmp_path):
+    config = tiny_config(
+        observer={"kind": "kmeans", "kmeans": {"clusters": 3, "recluster": True}}, design={"kind": "geometry"}
+    )
+    run(tiny_robot(), config, tmp_path / "run", progress=False)
+    phases = [json.loads(line) for line in (tmp_path / "run" / "learning.jsonl").read_text().splitlines()]
+    # A phase after each of the 2 episodes, for each of the 2 seeds; the design moved, so did
+    # some of the clusters' material.
+    assert [(p["seed"], p["phase"]) for p in phases] == [(0, 1), (1, 1), (0, 2), (1, 2)]
+    assert all(0.0 <= p["kmeans/relabelled"] <= 1.0 for p in phases)
+    assert max(p["kmeans/relabelled"] for p in phases) > 0.0
+
+
 @pytest.mark.parametrize(
     "changes, message",
     [

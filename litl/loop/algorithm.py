@@ -126,9 +126,13 @@ class Algorithm:
 
 def empty_statistics(observer: Observer, dtype, dim: int) -> dict:
     """A seed's statistics before its first learning phase: the observer's (none for one that
-    does not learn) and the loop's own ``update_accepted``."""
-    learner = observer.learner
-    return {**(learner.empty_statistics(dtype, dim) if learner is not None else {}), "update_accepted": True}
+    does not learn), its follower's (`BodyFollower`) and the loop's own ``update_accepted``."""
+    learner, follower = observer.learner, observer.follower
+    return {
+        **(learner.empty_statistics(dtype, dim) if learner is not None else {}),
+        **(follower.empty_statistics(dtype) if follower is not None else {}),
+        "update_accepted": True,
+    }
 
 
 def make_algorithm(robot: Robot, settings: AlgorithmSettings, on_epoch=None) -> Algorithm:
@@ -152,7 +156,9 @@ def make_algorithm(robot: Robot, settings: AlgorithmSettings, on_epoch=None) -> 
     )
     if on_epoch is not None and observer.learner is not None:
         observer = dataclasses.replace(observer, learner=observer.learner.reporting_epochs(on_epoch))
-    schedule = LearningSchedule.of(settings.loop.schedule, learns=observer.learner is not None)
+    # An observer that follows the body (k-means reclustering) has phases, as one that learns.
+    learns = observer.learner is not None or observer.follower is not None
+    schedule = LearningSchedule.of(settings.loop.schedule, learns=learns)
     stride = min(settings.loop.snapshot_stride, steps)
     _check_learning_data(settings.loop, observer, schedule, steps, stride)
     simultaneous = schedule is LearningSchedule.simultaneous

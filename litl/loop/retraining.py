@@ -72,11 +72,29 @@ class Retraining:
         `first`: a () bool array, or a value `jnp.asarray` makes one: whether this is the
         bootstrap's phase (Θ ← Θ′ whole). As an array, so that the bootstrap's phase and the later
         ones are one compiled program (the run shell passes it so)."""
+        state, followed = self.follow(state)
         if self.learner is None:
-            return state, state.stats
+            return self.with_statistics(state, state.stats, followed)
         state, key = split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
-        return self.adopt(state, trained, stats, first)
+        adopted, stats = self.adopt(state, trained, stats, first)
+        return self.with_statistics(adopted, stats, followed)
+
+    def follow(self, state: LoopState):
+        """The observer refitted to the body's current design, where it follows the body
+        (`Observer.follower`), and the refit's statistics ({} where it does not)."""
+        follower = self.simulation.observer.follower
+        if follower is None:
+            return state, {}
+        design = self.simulation.robot.design_space.to_design(state.design)
+        refitted, statistics = follower.refit(state.observer, design)
+        return state.replace(observer=refitted), dict(statistics)
+
+    @staticmethod
+    def with_statistics(state: LoopState, statistics, followed):
+        """(state, its statistics): a phase's `statistics` with a refit's `followed` merged in."""
+        merged = {**dict(statistics), **followed}
+        return state.replace(stats=merged), merged
 
     def learn_seeds(self, states: LoopState, at_once: int, first=False):
         """`learn` for a batch of seeds (every leaf's leading axis): the learning phases run
@@ -85,15 +103,21 @@ class Retraining:
         stops each at its own epoch. The results are `jax.vmap(learn)`'s (up to rounding)."""
         if at_once >= jax.tree.leaves(states)[0].shape[0]:  # every seed together: the plain vmap
             return jax.vmap(lambda state: self.learn(state, first))(states)
+        states, followed = jax.vmap(self.follow)(states)
         if self.learner is None:
-            return states, states.stats
+            return jax.vmap(lambda state, refit: self.with_statistics(state, state.stats, refit))(
+                states, followed
+            )
         states, keys = jax.vmap(split_key)(states)
         trained, stats = jax.lax.map(
             lambda seed: self.learner.phase(*seed), (states.observer, states.buffer, keys), batch_size=at_once
         )
-        return jax.vmap(lambda state, phase, phase_stats: self.adopt(state, phase, phase_stats, first))(
-            states, trained, stats
-        )
+
+        def adopt(state, phase, phase_stats, refit):
+            adopted, adopted_stats = self.adopt(state, phase, phase_stats, first)
+            return self.with_statistics(adopted, adopted_stats, refit)
+
+        return jax.vmap(adopt)(states, trained, stats, followed)
 
     def adopt(self, state: LoopState, trained, stats, first=False):
         """Θ ← α·Θ′ + (1 − α)·Θ from a learning phase's `trained` Θ′ and its `stats` (a mapping

@@ -20,6 +20,7 @@ guide shows an example with a setting of its own).
 from litl.observers.autoencoder import AutoencoderSettings, autoencoder, plain_autoencoder
 from litl.observers.interface import (
     OBSERVERS,
+    BodyFollower,
     Factory,
     GridField,
     Learner,
@@ -42,6 +43,7 @@ if "vae" not in OBSERVERS.names():  # a module reloaded (importlib.reload) regis
     register("none", no_observer)
 
 __all__ = [
+    "BodyFollower",
     "Factory",
     "GridField",
     "Learner",

@@ -110,6 +110,22 @@ class Learner:
 
 
 @dataclasses.dataclass(frozen=True)
+class BodyFollower:
+    """How an observer follows a body that co-design changes (`design=geometry`, `all`, ...).
+
+    Attributes:
+      refit: ``refit(params, design) -> (params', statistics)``: at every learning phase, before
+        the observer's own (if it learns), the observer's parameters refitted to the body's
+        current `litl.sim.Design` (pure, vmappable over seeds); statistics: a mapping of names to
+        arrays with the keys of `empty_statistics`, written out as a learning phase's.
+      empty_statistics: ``empty_statistics(dtype) -> {name: array}``, before the first refit.
+    """
+
+    refit: Callable[[Any, Any], tuple[Any, Mapping[str, Any]]]
+    empty_statistics: Callable[[Any], dict[str, Any]]
+
+
+@dataclasses.dataclass(frozen=True)
 class Observer:
     """An observer's pure functions (see the module docstring).
 
@@ -127,6 +143,8 @@ class Observer:
       pictures: ``pictures(robot, algorithm, state, run_dir, stride) -> [paths]``: the pictures
         of its representation for one seed's final `LoopState` (`litl.viz.run_pictures` calls it); None:
         no pictures.
+      follower: how it follows the body as co-design changes it (`BodyFollower`); None: it
+        keeps what it was given at init, whatever the design becomes.
     """
 
     n_features: int
@@ -136,6 +154,7 @@ class Observer:
     settings: str | None = None
     pictures: Callable[..., list] | None = None
     field: GridField | None = None
+    follower: BodyFollower | None = None
 
     @property
     def learned(self) -> bool:

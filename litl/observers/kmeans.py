@@ -2,7 +2,12 @@
 
 The particles of the robot's rest configuration are clustered once per seed; the features are the
 clusters' mean positions and velocities. It does not learn; its picture is the clusters
-(clusters.png, Fig. 7).
+(clusters.png, Fig. 7). Where co-design changes the body (`design=geometry`, `all`),
+``observer.kmeans.recluster=true`` reclusters it at every learning phase by where its material
+now is (weighted Lloyd iterations from the current centres, so that each cluster keeps its place
+among the controller's inputs), and records ``kmeans/relabelled`` (the share of the material
+whose cluster changed). Off by default: the paper's baseline keeps its clusters, and the paper's
+argument is that they cannot follow the design.
 """
 
 from __future__ import annotations
@@ -11,17 +16,25 @@ import dataclasses
 import pathlib
 from dataclasses import dataclass
 
-from litl.models.kmeans import fit_kmeans, kmeans_features
-from litl.observers.interface import Observer, ObserverContext
+import jax.numpy as jnp
+
+from litl.models.kmeans import fit_kmeans, kmeans_features, refit_kmeans
+from litl.observers.interface import BodyFollower, Observer, ObserverContext
 from litl.settings import Settings, SettingsError
 
 
 @dataclass(frozen=True)
 class KMeansSettings(Settings):
-    """The k-means baseline (`observer=kmeans`). Attributes: clusters, k clusters of the rest
-    shape (features: each cluster's mean position and velocity)."""
+    """The k-means baseline (`observer=kmeans`).
+
+    Attributes:
+      clusters: k clusters of the rest shape (features: each cluster's mean position and velocity).
+      recluster: recluster the body by its material at every learning phase (where co-design
+        changes it); False: keep the clusters of the robot as built, as the paper's baseline does.
+    """
 
     clusters: int = dataclasses.field(default=6, metadata={"short": "k"})  # k in reports' labels
+    recluster: bool = False
 
     def check(self) -> None:
         self._positive_ints("clusters")
@@ -41,6 +54,22 @@ def kmeans(robot, settings: KMeansSettings, context: ObserverContext) -> Observe
         init=lambda key, seed: fit_kmeans(rest, clusters, seed=seed),
         features=kmeans_features,
         pictures=pictures,
+        follower=following(robot, rest) if settings.recluster else None,
+    )
+
+
+def following(robot, rest) -> BodyFollower:
+    """Reclustering by material: a particle's weight is its mass over its mass in the robot as
+    built (the geometry's occupancy, through its interpolation of mass)."""
+    n = rest.shape[0]
+    built = robot.scene(rest.dtype).design.density[:n]
+
+    def refit(params, design):
+        clusters, relabelled = refit_kmeans(params, rest, design.density[:n] / built)
+        return clusters, {"kmeans/relabelled": relabelled}
+
+    return BodyFollower(
+        refit=refit, empty_statistics=lambda dtype: {"kmeans/relabelled": jnp.zeros((), dtype)}
     )
 
 

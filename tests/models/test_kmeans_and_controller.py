@@ -103,3 +103,35 @@ def test_sinusoid_controller_is_the_open_loop_policy_and_ignores_features():
         controller.apply(params, jnp.zeros(5))
     with pytest.raises(ValueError, match="omega must be a positive"):
         SinusoidController(3, omega=0.0)
+
+
+def test_reclustering_follows_the_material_and_keeps_each_cluster_in_its_place():
+    """`refit_kmeans`: with every particle's material kept, a fitted clustering is its own refit;
+    with the right half's material gone, every centre moves into the material that is left (the
+    cluster left without any restarting there) and the relabelled share says how much material
+    changed cluster; a small change keeps each cluster in its place (the controller's c-th
+    input)."""
+    from litl.models.kmeans import refit_kmeans
+
+    x = np.stack([np.linspace(0.0, 1.0, 60), np.zeros(60)], axis=1)
+    fitted = fit_kmeans(jnp.asarray(x, jnp.float32), 3, seed=0)
+    same, relabelled = refit_kmeans(fitted, jnp.asarray(x, jnp.float32), jnp.ones(60))
+    np.testing.assert_allclose(np.asarray(same.averaging), np.asarray(fitted.averaging), atol=1e-6)
+    assert float(relabelled) == 0.0
+
+    left = jnp.asarray(x[:, 0] < 0.5, jnp.float32)
+    refitted, relabelled = refit_kmeans(fitted, jnp.asarray(x, jnp.float32), left)
+    centers = np.asarray(refitted.centers)[:, 0]
+    assert centers.max() < 0.5  # every cluster lies in the material left, none is left empty
+    assert (np.asarray(refitted.averaging).sum(1) > 0.99).all()
+    assert float(relabelled) > 0.2
+    # A small change of material moves the centres a little and keeps their order.
+    fading = jnp.asarray(np.where(x[:, 0] > 0.9, 0.5, 1.0), jnp.float32)
+    nudged, _ = refit_kmeans(fitted, jnp.asarray(x, jnp.float32), fading)
+    assert list(np.argsort(np.asarray(nudged.centers)[:, 0])) == list(
+        np.argsort(np.asarray(fitted.centers)[:, 0])
+    )
+    np.testing.assert_allclose(np.asarray(nudged.centers), np.asarray(fitted.centers), atol=0.05)
+    # A particle without material counts in no cluster's mean.
+    np.testing.assert_allclose(np.asarray(refitted.averaging)[:, x[:, 0] >= 0.5], 0.0)
+    np.testing.assert_allclose(np.asarray(refitted.averaging).sum(1), 1.0, rtol=1e-5)
