@@ -24,6 +24,10 @@ into the grid swapped (`transfer.scatter_to_grid` is replaced while tracing):
   one_hot_separable   the same product without forming that matrix: per-axis one-hots (n, 3,
                       nodes along the axis), contracted by `jnp.einsum` (the big one-hot is their
                       Kronecker product); same node limit
+  fixed_point         litl's `scatter_to_grid(..., fixed_point=True)` (`SimConfig.particle_to_grid`):
+                      each channel scaled by a power of two, rounded and summed as int32 pairs in
+                      the same windowed scatter, deterministic by construction; its transpose is
+                      the same windowed gather
   no_scatter          not a transfer (its grid is not checked): the scatter replaced by a plain
                       sum of the node values over particles, i.e. roughly what the rest of the
                       transfer (stencil, node values, objective) costs
@@ -105,7 +109,15 @@ import numpy as np
 
 import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.backend)
 
-VARIANTS = ("window", "at_add", "segment_sum_sorted", "one_hot", "one_hot_separable", "no_scatter")
+VARIANTS = (
+    "window",
+    "fixed_point",
+    "at_add",
+    "segment_sum_sorted",
+    "one_hot",
+    "one_hot_separable",
+    "no_scatter",
+)
 SIZES = ("biped64", "block128", "quadruped32", "quadruped64")
 QUICK_SIZES = ("biped64", "quadruped16")
 ONE_HOT = ("one_hot", "one_hot_separable")
@@ -249,8 +261,14 @@ def scatter_as(variant: str):
     from litl.sim import transfer
 
     own = transfer.scatter_to_grid
-    if variant != "window":
-        transfer.scatter_to_grid = SCATTERS[variant]
+    if variant == "fixed_point":
+        transfer.scatter_to_grid = lambda st, values, grid_shape, fixed_point=False: own(
+            st, values, grid_shape, fixed_point=True
+        )
+    elif variant != "window":
+        transfer.scatter_to_grid = lambda st, values, grid_shape, fixed_point=False: SCATTERS[variant](
+            st, values, grid_shape
+        )
     try:
         yield
     finally:

@@ -158,7 +158,7 @@ def test_an_older_run_json_reads_under_the_new_keys():
     vae = observer.pop("vae")
     loop["learning"].update(beta=vae.pop("beta"), momentum_weight=vae.pop("momentum_weight"))
     observer.update(vae)
-    observer.update(observer.pop("kmeans"))
+    observer["clusters"] = observer.pop("kmeans")["clusters"]  # k-means' one key then (no recluster)
     assert read_sections_only(upgrade(old)) == json.loads(json.dumps(Config().run_settings()))
     # Keys moved within their section, but for the VAE's loss weights, which left the loop's
     # learning phase for the observer's own section (2026-12-02).

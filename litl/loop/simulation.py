@@ -93,8 +93,9 @@ class Simulation:
         budget = sim.budget_bytes(seeds)
         if budget is None:
             budget = default_budget_bytes() // seeds
+        config = dataclasses.replace(self.scene.config, particle_to_grid=sim.particle_to_grid)
         return make_rollout(
-            self.scene.config,
+            config,
             self.scene.body,
             self.policy,
             self.steps,

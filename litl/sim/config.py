@@ -29,9 +29,11 @@ from litl.sim.materials import Elastic
 
 WallKind = Literal["sticky", "slip", "friction", "open"]
 Buffering = Literal["auto", "none", "fields", "fields_and_nodes"]
+ParticleToGrid = Literal["scatter", "fixed_point"]
 
 WALL_KINDS = ("sticky", "slip", "friction", "open")
 BUFFERINGS = ("auto", "none", "fields", "fields_and_nodes")
+PARTICLE_TO_GRID = ("scatter", "fixed_point")
 
 
 # The name before issue 39 (it read like the settings' error): kept, `litl.sim` exported it.
@@ -151,6 +153,14 @@ class SimConfig:
         purely elastic fixed-corotated (ChainQueen / DiffTaichi, the published walker's scene,
         the 3D walkers); the catalog's 2D robots limit their stretch
         (`litl.robots.design.MAX_STRETCH`, `Material.max_stretch`).
+      particle_to_grid: how particle-to-grid sums each node's contributions: ``"scatter"`` (the
+        default), one float scatter-add, whose float32 sum depends on the order the additions
+        land in (on a GPU, atomics: another rounding each run unless XLA is asked for
+        deterministic ops); ``"fixed_point"``, each channel scaled by a power of two, rounded to
+        integers (42 bits below its total) and summed as int32 pairs: exact and associative, the
+        same grid in any order, deterministic by construction (`litl.sim.transfer`); it agrees
+        with the float sum to float32 rounding. Reverse mode's scatters (the gathers'
+        transposes) follow the same setting.
       buffering: which values a rolled-out step computes into buffers before their many readers
         read them (`litl.sim.linalg.materialize`); it changes speed only, results agree to
         rounding. ``"none"``; ``"fields"``: the particles' affine momentum and the grid velocity;
@@ -170,6 +180,7 @@ class SimConfig:
     mass_epsilon: float = 1e-10
     buffering: Buffering = "auto"
     materials: tuple[Any, ...] = (Elastic(),)
+    particle_to_grid: ParticleToGrid = "scatter"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "grid_shape", tuple(self.grid_shape))
@@ -201,6 +212,10 @@ class SimConfig:
             )
         if self.buffering not in BUFFERINGS:
             raise SimConfigError(f"unknown buffering {self.buffering!r}; choose one of {BUFFERINGS}")
+        if self.particle_to_grid not in PARTICLE_TO_GRID:
+            raise SimConfigError(
+                f"unknown particle_to_grid {self.particle_to_grid!r}; choose one of {PARTICLE_TO_GRID}"
+            )
         boundary = Boundary.box(dim) if self.boundary is None else self.boundary
         object.__setattr__(self, "boundary", boundary)
         if len(boundary.walls) != 2 * dim:

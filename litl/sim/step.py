@@ -144,6 +144,7 @@ def make_component_step(config: SimConfig, body: Body):
     buffer_fields = buffering != "none"
     buffer_nodes = buffering == "fields_and_nodes"
     moving = config.moving_colliders
+    fixed = config.particle_to_grid == "fixed_point"
 
     def step(state: Components, actuation, design: Design, token=None):
         field_token = token if buffer_fields else None
@@ -168,7 +169,7 @@ def make_component_step(config: SimConfig, body: Body):
         momentum = [mass * v for v in state.v]
         extra = () if body.observed is None else (jnp.where(body.observed, mass, 0.0),)
         shape = config.grid_shape
-        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, shape, node_token, extra)
+        grid = transfer.particles_to_grid(st, mass, momentum, affine, dx, shape, node_token, extra, fixed)
         observed_mass = None
         if extra:
             grid, observed_mass = grid[..., : 1 + dim], grid[..., 1 + dim]
@@ -182,7 +183,7 @@ def make_component_step(config: SimConfig, body: Body):
         velocity = linalg.stack(velocity, -1)
         if field_token is not None:
             velocity = linalg.materialize(velocity, field_token)
-        v, C = transfer.grid_to_particles(st, velocity, dx, node_token)
+        v, C = transfer.grid_to_particles(st, velocity, dx, node_token, fixed)
         free = ~body.pinned
         v = [jnp.where(free, c, 0.0) for c in v]
         C = [[jnp.where(free, c, 0.0) for c in row] for row in C]
@@ -226,6 +227,7 @@ def rasterize(config: SimConfig, body: Body, state: SimState, design: Design) ->
         config.dx,
         config.grid_shape,
         extra=extra,
+        fixed_point=config.particle_to_grid == "fixed_point",
     )
     observed_mass = None
     if extra:

@@ -90,6 +90,53 @@ def _raw_scatter(base, values, grid_shape):
     return jax.lax.scatter_add(grid, base, values, numbers, mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS)
 
 
+# Fixed-point sums (`SimConfig.particle_to_grid="fixed_point"`): every value is scaled by a power
+# of two so that the absolute sum of a channel's values stays below 2^FIXED_BITS, rounded to an
+# integer, and split into a high part (value >> LOW_BITS) and a low part (its last LOW_BITS bits),
+# each summed as int32. Integer addition is exact and associative, so the grid does not depend on
+# the order in which a scatter's additions land (atomics on a GPU): deterministic by
+# construction. Bounds: |sum of high parts| < 2^(FIXED_BITS - LOW_BITS) < 2^31 always; the low
+# parts overflow only past 2^(31 - LOW_BITS) = 2^19 contributions to one node.
+FIXED_BITS = 42
+LOW_BITS = 12
+
+
+def _power_of_two(exponent, dtype):
+    """2^exponent exactly, as `dtype` (float32 or float64), built from its bits: XLA:CPU's
+    `ldexp` is 5-10x slower than the multiply it stands for. `exponent` stays within a normal
+    float's range (|exponent| < 127 here)."""
+    if jnp.dtype(dtype) == jnp.float64:
+        bits = (exponent.astype(jnp.int64) + 1023) << 52
+        return jax.lax.bitcast_convert_type(bits, jnp.float64)
+    bits = (exponent.astype(jnp.int32) + 127) << 23
+    return jax.lax.bitcast_convert_type(bits, jnp.float32)
+
+
+def _scaled(values, shift):
+    """values * 2^shift, exactly: the power in two halves, each a normal float."""
+    half = shift // 2
+    return values * _power_of_two(half, values.dtype) * _power_of_two(shift - half, values.dtype)
+
+
+def _fixed_point(values, reduce_axes):
+    """(int32 high and low parts along the channel axis, doubled; the scale exponent per
+    channel), `reduce_axes` the axes one scale covers (all but a batch axis and the channels)."""
+    total = jnp.sum(jnp.abs(values), axis=reduce_axes, keepdims=True)
+    _, exponent = jnp.frexp(total)  # total < 2^exponent (0 for a zero total)
+    shift = FIXED_BITS - exponent
+    scaled = jnp.round(_scaled(values, shift))  # exact: an integer below 2^FIXED_BITS
+    high = jnp.floor(scaled * (1.0 / 2**LOW_BITS))
+    low = scaled - high * 2**LOW_BITS  # in [0, 2^LOW_BITS), exact
+    return jnp.concatenate([high, low], axis=-1).astype(jnp.int32), shift
+
+
+def _from_fixed_point(sums, shift, dtype):
+    """The grid's float values from its summed int32 parts (`_fixed_point`)."""
+    channels = sums.shape[-1] // 2
+    high, low = sums[..., :channels].astype(dtype), sums[..., channels:].astype(dtype)
+    return _scaled(high * 2**LOW_BITS + low, -shift)
+
+
 def _raw_gather(base, grid):
     window, axes = _window_numbers(base.shape[-1])
     numbers = jax.lax.GatherDimensionNumbers(
@@ -115,24 +162,45 @@ def _fold_batch(axis_size, in_batched, base, other, grid_rows):
     return base.reshape((-1,) + base.shape[2:]), other
 
 
-def _window_transfers(grid_shape):
+def _window_transfers(grid_shape, fixed_point: bool = False):
     """Windowed scatter/gather for one grid shape, batched by stacking grids along axis 0.
 
     Under `vmap`, JAX's generic scatter batching adds the batch as an extra indexed axis, which
     XLA:CPU executes with layout copies of every update window; stacking the batch's grids into
-    one taller grid keeps it a plain windowed scatter/gather.
+    one taller grid keeps it a plain windowed scatter/gather. With `fixed_point` the scatter sums
+    integers (`_fixed_point`, one scale per batch element), the gather is unchanged.
     """
     rows = grid_shape[0]
 
+    def summed(base, values, shape, batched: bool):
+        if not fixed_point:
+            return _raw_scatter(base, values, shape)
+        if batched:  # (B, n, 3, ..., 3, c): one scale per batch element and channel
+            parts, shift = _fixed_point(values, tuple(range(1, values.ndim - 1)))
+            parts = parts.reshape((-1,) + parts.shape[2:])
+            sums = _raw_scatter(base, parts, shape)
+            sums = sums.reshape((values.shape[0],) + tuple(grid_shape) + sums.shape[-1:])
+            return _from_fixed_point(
+                sums, shift.reshape(shift.shape[:1] + (1,) * dim + shift.shape[-1:]), values.dtype
+            )
+        parts, shift = _fixed_point(values, tuple(range(values.ndim - 1)))
+        sums = _raw_scatter(base, parts, shape)
+        return _from_fixed_point(sums, shift.reshape((1,) * dim + shift.shape[-1:]), values.dtype)
+
+    dim = len(grid_shape)
+
     @jax.custom_batching.custom_vmap
     def scatter(base, values):
-        return _raw_scatter(base, values, grid_shape)
+        return summed(base, values, grid_shape, batched=False)
 
     @scatter.def_vmap
     def _scatter_batched(axis_size, in_batched, base, values):
         base, values = _fold_batch(axis_size, in_batched, base, values, rows)
+        tall = (axis_size * rows,) + tuple(grid_shape[1:])
+        if fixed_point:
+            return summed(base, values, tall, batched=True), True
         values = values.reshape((-1,) + values.shape[2:])
-        out = _raw_scatter(base, values, (axis_size * rows,) + tuple(grid_shape[1:]))
+        out = _raw_scatter(base, values, tall)
         return out.reshape((axis_size,) + tuple(grid_shape) + out.shape[-1:]), True
 
     @jax.custom_batching.custom_vmap
@@ -181,30 +249,35 @@ def _pad_channels(a):
     return jnp.pad(a, [(0, 0)] * (a.ndim - 1) + [(0, padded - channels)])
 
 
-def scatter_to_grid(st: Stencil, values, grid_shape):
+def scatter_to_grid(st: Stencil, values, grid_shape, fixed_point: bool = False):
     """Sum per-node particle values into the grid.
 
     Args:
       st: the particles' stencil.
       values: (n, 3, ..., 3, c) value each particle adds to each of its 3^d stencil nodes.
       grid_shape: nodes per axis.
+      fixed_point: sum them as integers (`SimConfig.particle_to_grid="fixed_point"`): the same
+        grid for any order of the additions; its transpose (reverse mode) is the same gather.
 
     Returns:
       (*grid_shape, c) grid of summed values.
     """
-    scatter, _ = _window_transfers(tuple(grid_shape))
+    scatter, _ = _window_transfers(tuple(grid_shape), fixed_point)
     return scatter(st.base, values)
 
 
-def gather_from_grid(st: Stencil, grid):
-    """Read each particle's stencil of a (*grid_shape, c) grid: (n, 3, ..., 3, c)."""
+def gather_from_grid(st: Stencil, grid, fixed_point: bool = False):
+    """Read each particle's stencil of a (*grid_shape, c) grid: (n, 3, ..., 3, c). The gather is
+    the same either way; `fixed_point` makes its transpose (reverse mode's scatter) sum so."""
     channels = grid.shape[-1]
     grid = _pad_channels(grid)  # so that the transpose (a scatter) is fast, see `_pad_channels`
-    _, gather = _window_transfers(tuple(grid.shape[:-1]))
+    _, gather = _window_transfers(tuple(grid.shape[:-1]), fixed_point)
     return gather(st.base, grid)[..., :channels]
 
 
-def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token=None, extra=()):
+def particles_to_grid(
+    st: Stencil, mass, momentum, affine, dx, grid_shape, token=None, extra=(), fixed_point: bool = False
+):
     """MLS-MPM particle-to-grid transfer: node i gets w_ip (m_p, m_p v_p + A_p (x_i - x_p)).
 
     Args:
@@ -216,6 +289,7 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token
       grid_shape: nodes per axis.
       extra: more (n,) per-particle values to scatter with the same weights (e.g. the mass of
         the particles an observer sees), each one more channel after the momentum.
+      fixed_point: sum in fixed point (`scatter_to_grid`).
 
     Returns:
       (*grid_shape, 1 + d + len(extra)) grid holding the mass, then the momentum components
@@ -240,23 +314,25 @@ def particles_to_grid(st: Stencil, mass, momentum, affine, dx, grid_shape, token
             values.append(weight * node)
         values.extend(weight * value for value in extra)
     values = linalg.stack(values, -1).reshape((-1,) + (3,) * dim + (1 + dim + len(extra),))
-    return scatter_to_grid(st, values, grid_shape)
+    return scatter_to_grid(st, values, grid_shape, fixed_point)
 
 
-def grid_to_particles(st: Stencil, grid_velocity, dx, token=None):
+def grid_to_particles(st: Stencil, grid_velocity, dx, token=None, fixed_point: bool = False):
     """MLS-MPM grid-to-particle transfer.
 
     Args:
       st: stencil of the particles.
       grid_velocity: (*grid_shape, d) node velocities.
       dx: grid spacing.
+      fixed_point: reverse mode's scatter of the gather's cotangent sums in fixed point.
 
     Returns:
       v: d arrays (n,), new particle velocities; C: d x d arrays (n,), new affine matrices
       C = 4/dx sum_i w_ip v_i (offset_i - fx)^T.
     """
     dim = st.dim
-    window = linalg.unstack(gather_from_grid(st, grid_velocity).reshape(-1, 3**dim * dim), -1)
+    gathered = gather_from_grid(st, grid_velocity, fixed_point)
+    window = linalg.unstack(gathered.reshape(-1, 3**dim * dim), -1)
     v = [0.0] * dim
     moment = [[0.0] * dim for _ in range(dim)]  # sum_i w v_i offset_i^T
     for node, (offset, weight) in enumerate(st.nodes()):

@@ -85,3 +85,39 @@ def test_scatter_and_gather_are_adjoint_under_vmap_and_grad(x64):
     for i in range(2):
         for j in range(2):
             np.testing.assert_allclose(nested[i, j], loss(bases[i], values[j], weights[i]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+def test_a_fixed_point_sum_is_the_definition_to_rounding_and_ignores_the_order(dtype, x64):
+    """`fixed_point=True`: the grid agrees with the one-by-one sum to float32 rounding (its
+    integers keep 42 bits below each channel's total), and reordering the particles, which
+    reorders a scatter's additions, changes no bit of it (integer sums are associative)."""
+    st = _stencil(3)
+    values = _values(4, channels=4).astype(dtype) * jnp.asarray([1.0, 1e-3, 10.0, 0.0], dtype)
+    exact = _dense_scatter(st, np.asarray(values, np.float64))
+    fixed = jax.jit(lambda s, v: transfer.scatter_to_grid(s, v, SHAPE, fixed_point=True))
+    grid = np.asarray(fixed(st, values), np.float64)
+    np.testing.assert_allclose(grid, exact, rtol=2e-7, atol=1e-12 * np.abs(exact).max())
+    assert not grid[..., 3].any()  # a channel of zeros stays zero
+    order = np.random.default_rng(0).permutation(values.shape[0])
+    shuffled = st.replace(base=st.base[order])
+    np.testing.assert_array_equal(np.asarray(fixed(shuffled, values[order])), np.asarray(fixed(st, values)))
+    # Under vmap each batch element has its own scale: the same grids as one at a time.
+    stacked = jax.vmap(lambda v: transfer.scatter_to_grid(st, v, SHAPE, fixed_point=True))
+    pair = jnp.stack([values, 1e3 * values])
+    np.testing.assert_array_equal(np.asarray(stacked(pair)[0]), np.asarray(fixed(st, values)))
+    np.testing.assert_array_equal(np.asarray(stacked(pair)[1]), np.asarray(fixed(st, 1e3 * values)))
+
+
+def test_a_fixed_point_scatter_has_the_gather_as_its_transpose(x64):
+    st = _stencil(5)
+    values = _values(6)
+    weights = jnp.asarray(np.random.default_rng(7).normal(size=SHAPE + (3,)))
+
+    def loss(v, fixed_point):  # linear in the grid: its gradient is the transpose applied to weights
+        grid = transfer.scatter_to_grid(st, v, SHAPE, fixed_point=fixed_point)
+        return jnp.sum(grid * weights)
+
+    transpose = transfer.gather_from_grid(st, weights)
+    np.testing.assert_array_equal(np.asarray(jax.grad(loss)(values, True)), np.asarray(transpose))
+    np.testing.assert_array_equal(np.asarray(jax.grad(loss)(values, False)), np.asarray(transpose))
