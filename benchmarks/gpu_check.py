@@ -13,6 +13,10 @@ Parts, each in fresh processes that run this checkout (PYTHONPATH is set to it):
           forward+backward against whole iterations (no observer, k-means, VAE), dx 1/128, 10 seeds
   demo    the demo (3 episodes, no pictures) twice in litl's default mode: the final losses must be
           the same bit for bit
+  p2g     benchmarks/p2g_scatter.py, the float scatter (`window`) against the fixed-point sum
+          (`sim.particle_to_grid=fixed_point`, deterministic by construction), in each mode:
+          whether the fixed-point sum without XLA's deterministic ops costs less than the
+          scatter with them (the choice of litl's default on a GPU)
 
 Determinism modes (`litl.backend`): `off` (LITL_DETERMINISM=off: XLA's defaults), `on` (litl's
 default, `--xla_gpu_deterministic_ops=true`) with XLA's sort-based scatter rewrite switched off
@@ -36,7 +40,7 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
-PARTS = ("tests", "sim", "loop", "breakdown", "demo")
+PARTS = ("tests", "sim", "loop", "breakdown", "demo", "p2g")
 EXPANDER = "--xla_gpu_enable_scatter_determinism_expander"
 MODES = {
     "off": {"LITL_DETERMINISM": "off"},
@@ -113,6 +117,20 @@ def check_sim(smoke: bool, modes: list[str], timeout: float) -> dict:
         )
         results[mode] = {"wall_s": result["wall_s"], "scenes": _last_json(result["stdout"])}
         if results[mode]["scenes"] is None:
+            results[mode]["error"] = result["stderr_tail"]
+    return results
+
+
+def check_p2g(smoke: bool, modes: list[str], timeout: float) -> dict:
+    sizes = ["biped64"] if smoke else ["biped64", "block128", "quadruped32", "quadruped64"]
+    arguments = ["--sizes", *sizes, "--variants", "window", "fixed_point", "--json"]
+    arguments += ["--repeats", "2" if smoke else "7"]
+    results = {}
+    for mode in modes:
+        command = [sys.executable, str(BENCHMARKS / "p2g_scatter.py"), *arguments]
+        result = _run(command, _environment(mode), timeout)
+        results[mode] = {"wall_s": result["wall_s"], "p2g": _last_json(result["stdout"])}
+        if results[mode]["p2g"] is None:
             results[mode]["error"] = result["stderr_tail"]
     return results
 
@@ -255,6 +273,7 @@ def main(argv=None) -> int:
         "loop": lambda: check_loop(args.smoke, args.modes, args.timeout),
         "breakdown": lambda: check_breakdown(args.smoke, args.timeout),
         "demo": lambda: check_demo(args.smoke, out, args.timeout),
+        "p2g": lambda: check_p2g(args.smoke, args.modes, args.timeout),
     }
     for part in PARTS:
         if part in args.parts:
