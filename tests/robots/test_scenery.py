@@ -227,8 +227,13 @@ def test_the_push_box_world_says_it_brings_its_own_task_and_records_it(tmp_path,
         SettingsError, match="task=locomotion with world=push_box: that world brings its own task"
     ):
         build_robot(compose(["world=push_box", "task=locomotion", "+scale=smoke"]))
+    # No observer to learn: what is checked is the task the run says and records (seconds, not a
+    # VAE's compilation).
     config = tiny_config(
-        seeds=1, world={"kind": "push_box", "push_box": {"gap": 1.0}}, loop={"episodes": 1, "iterations": 1}
+        seeds=1,
+        observer={"kind": "none"},
+        world={"kind": "push_box", "push_box": {"gap": 1.0}},
+        loop={"episodes": 1, "iterations": 1},
     )
     run(tiny_robot(), config, tmp_path, progress=False)
     assert "world=push_box brings its own task, in place of the robot's" in capsys.readouterr().err
@@ -236,5 +241,6 @@ def test_the_push_box_world_says_it_brings_its_own_task_and_records_it(tmp_path,
     assert term["term"] == "Push" and term["body"] == "box"
     # The flat world records the robot's own task.
     flat = tmp_path / "flat"
-    run(tiny_robot(), tiny_config(seeds=1, loop={"episodes": 1, "iterations": 1}), flat, progress=False)
+    flat_config = tiny_config(seeds=1, observer={"kind": "none"}, loop={"episodes": 1, "iterations": 1})
+    run(tiny_robot(), flat_config, flat, progress=False)
     assert json.loads((flat / "run.json").read_text())["task"][0]["term"] == "Locomotion"
