@@ -99,6 +99,8 @@ def _raw_scatter(base, values, grid_shape):
 # parts overflow only past 2^(31 - LOW_BITS) = 2^19 contributions to one node.
 FIXED_BITS = 42
 LOW_BITS = 12
+# The scale exponent of a channel that holds a non-finite value (valid ones lie in [-87, 190]).
+NON_FINITE = -10_000
 
 
 def _power_of_two(exponent, dtype):
@@ -120,21 +122,27 @@ def _scaled(values, shift):
 
 def _fixed_point(values, reduce_axes):
     """(int32 high and low parts along the channel axis, doubled; the scale exponent per
-    channel), `reduce_axes` the axes one scale covers (all but a batch axis and the channels)."""
+    channel, or `NON_FINITE` where a channel holds a non-finite value), `reduce_axes` the axes one scale
+    covers (all but a batch axis and the channels)."""
     total = jnp.sum(jnp.abs(values), axis=reduce_axes, keepdims=True)
-    _, exponent = jnp.frexp(total)  # total < 2^exponent (0 for a zero total)
+    finite = jnp.isfinite(total)
+    _, exponent = jnp.frexp(jnp.where(finite, total, 0.0))  # total < 2^exponent (0 for 0)
     shift = FIXED_BITS - exponent
-    scaled = jnp.round(_scaled(values, shift))  # exact: an integer below 2^FIXED_BITS
+    scaled = jnp.round(_scaled(jnp.where(finite, values, 0.0), shift))  # an integer < 2^FIXED_BITS
     high = jnp.floor(scaled * (1.0 / 2**LOW_BITS))
     low = scaled - high * 2**LOW_BITS  # in [0, 2^LOW_BITS), exact
-    return jnp.concatenate([high, low], axis=-1).astype(jnp.int32), shift
+    return jnp.concatenate([high, low], axis=-1).astype(jnp.int32), jnp.where(finite, shift, NON_FINITE)
 
 
 def _from_fixed_point(sums, shift, dtype):
-    """The grid's float values from its summed int32 parts (`_fixed_point`)."""
+    """The grid's float values from its summed int32 parts (`_fixed_point`); NaN throughout a
+    channel that held a non-finite value, as a float sum would spread it (and a rollout's health
+    report it), never a finite grid made of it."""
     channels = sums.shape[-1] // 2
     high, low = sums[..., :channels].astype(dtype), sums[..., channels:].astype(dtype)
-    return _scaled(high * 2**LOW_BITS + low, -shift)
+    finite = shift != NON_FINITE
+    grid = _scaled(high * 2**LOW_BITS + low, -jnp.where(finite, shift, 0))
+    return jnp.where(finite, grid, jnp.nan)
 
 
 def _raw_gather(base, grid):

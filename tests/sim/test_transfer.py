@@ -121,3 +121,22 @@ def test_a_fixed_point_scatter_has_the_gather_as_its_transpose(x64):
     transpose = transfer.gather_from_grid(st, weights)
     np.testing.assert_array_equal(np.asarray(jax.grad(loss)(values, True)), np.asarray(transpose))
     np.testing.assert_array_equal(np.asarray(jax.grad(loss)(values, False)), np.asarray(transpose))
+
+
+def test_a_non_finite_value_is_not_summed_into_a_finite_fixed_point_grid():
+    st = _stencil(8)
+    values = _values(9).astype(jnp.float32).at[4, 1, 1, 2].set(jnp.nan)
+    grid = np.asarray(transfer.scatter_to_grid(st, values, SHAPE, fixed_point=True))
+    assert np.isnan(grid[..., 2]).all()  # the channel that held it
+    np.testing.assert_allclose(
+        grid[..., :2], _dense_scatter(st, np.asarray(values))[..., :2], rtol=2e-6, atol=1e-6
+    )
+
+
+def test_a_fixed_point_sum_of_huge_values_keeps_their_scale():
+    """A channel whose total passes 2^42 scales down (a negative shift), not into NaN."""
+    st = _stencil(10)
+    values = _values(11).astype(jnp.float32) * 1e15
+    grid = np.asarray(transfer.scatter_to_grid(st, values, SHAPE, fixed_point=True), np.float64)
+    exact = _dense_scatter(st, np.asarray(values, np.float64))
+    np.testing.assert_allclose(grid, exact, rtol=2e-6, atol=1e-12 * np.abs(exact).max())
