@@ -49,7 +49,7 @@ CPU_SCENES = ("walker2d", "quadruped3d", "walker2d_vmap10")
 BLOCK_PARTICLES = 1_048_576
 
 
-def _walker(n_policies: int | None, steps: int, max_stretch: float | None = None):
+def _walker(n_policies: int | None, steps: int, max_stretch: float | None = None, p2g: str = "scatter"):
     import dataclasses
 
     import jax
@@ -60,7 +60,8 @@ def _walker(n_policies: int | None, steps: int, max_stretch: float | None = None
 
     scene = walker2d.build(jnp.float32)
     own = dataclasses.replace(scene.config.own_material, max_stretch=max_stretch)
-    scene = dataclasses.replace(scene, config=scene.config.with_own_material(own))
+    config = dataclasses.replace(scene.config.with_own_material(own), particle_to_grid=p2g)
+    scene = dataclasses.replace(scene, config=config)
     rng = np.random.default_rng(0)
     weights = rng.normal(0, 0.3, (walker2d.N_ACTUATORS, 4))
     bias = rng.normal(0, 0.05, walker2d.N_ACTUATORS)
@@ -127,7 +128,7 @@ def quadruped_scene(dtype=None):
     return config, body, design, SimState.at_rest(jnp.asarray(x, dtype))
 
 
-def _quadruped(steps: int, max_stretch: float | None = None):
+def _quadruped(steps: int, max_stretch: float | None = None, p2g: str = "scatter"):
     import dataclasses
 
     import jax
@@ -137,6 +138,7 @@ def _quadruped(steps: int, max_stretch: float | None = None):
 
     config, body, design, state = quadruped_scene()
     config = config.with_own_material(dataclasses.replace(config.own_material, max_stretch=max_stretch))
+    config = dataclasses.replace(config, particle_to_grid=p2g)
 
     def policy(params, state, grid_velocity):
         t = state.step.astype(jnp.float32) * config.dt
@@ -249,6 +251,7 @@ def run_scene(
     steps: int | None,
     particles: int = BLOCK_PARTICLES,
     max_stretch: float | None = None,
+    p2g: str = "scatter",
 ) -> dict:
     import jax
 
@@ -257,16 +260,16 @@ def run_scene(
     # batch_particles: particles simulated per step, over all vmapped rollouts.
     if name == "walker2d":
         steps = steps or 1023
-        forward, gradient, params, batch_particles = _walker(None, steps, max_stretch)
+        forward, gradient, params, batch_particles = _walker(None, steps, max_stretch, p2g)
     elif name == "walker2d_vmap10":
         steps = steps or 1023
-        forward, gradient, params, batch_particles = _walker(10, steps, max_stretch)
+        forward, gradient, params, batch_particles = _walker(10, steps, max_stretch, p2g)
     elif name == "quadruped3d":
         steps = steps or 511
-        forward, gradient, params, batch_particles = _quadruped(steps, max_stretch)
+        forward, gradient, params, batch_particles = _quadruped(steps, max_stretch, p2g)
     elif name == "block3d_1m":
-        if max_stretch is not None:
-            raise SystemExit("--max-stretch applies to the walker and quadruped scenes")
+        if max_stretch is not None or p2g != "scatter":
+            raise SystemExit("--max-stretch and --particle-to-grid apply to the walker and quadruped scenes")
         steps = steps or 128
         forward, gradient, params, batch_particles = block_problem(steps, particles)
     else:
@@ -339,6 +342,12 @@ def main(argv=None):
         default=None,
         help="run the scenes with this strain limit (SimConfig.max_stretch; default: none)",
     )
+    parser.add_argument(
+        "--particle-to-grid",
+        choices=("scatter", "fixed_point"),
+        default="scatter",
+        help="how particle-to-grid sums (SimConfig.particle_to_grid; default: scatter)",
+    )
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one scene in-process
     parser.add_argument("--device-info", action="store_true", help=argparse.SUPPRESS)  # internal
     args = parser.parse_args(argv)
@@ -348,7 +357,10 @@ def main(argv=None):
         print(json.dumps(device_info()))
         return
     if args.one:
-        print(json.dumps(run_scene(args.one, args.repeats, args.steps, args.particles, args.max_stretch)))
+        measured = run_scene(
+            args.one, args.repeats, args.steps, args.particles, args.max_stretch, args.particle_to_grid
+        )
+        print(json.dumps(measured))
         return
     device = _child(["--device-info"])
     scenes = args.scenes or (CPU_SCENES if device["platform"] == "cpu" else SCENES)
@@ -359,6 +371,7 @@ def main(argv=None):
             command += ["--steps", str(args.steps)]
         if args.max_stretch is not None:
             command += ["--max-stretch", str(args.max_stretch)]
+        command += ["--particle-to-grid", args.particle_to_grid]
         results[name] = _child(command)
     if args.json:
         print(json.dumps(results))
