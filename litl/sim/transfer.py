@@ -186,13 +186,13 @@ def _window_transfers(grid_shape, fixed_point: bool = False):
         if batched:  # (B, n, 3, ..., 3, c): one scale per batch element and channel
             parts, shift = _fixed_point(values, tuple(range(1, values.ndim - 1)))
             parts = parts.reshape((-1,) + parts.shape[2:])
-            sums = _raw_scatter(base, parts, shape)
+            sums = _raw_scatter(base, _pad_channels(parts), shape)[..., : parts.shape[-1]]
             sums = sums.reshape((values.shape[0],) + tuple(grid_shape) + sums.shape[-1:])
             return _from_fixed_point(
                 sums, shift.reshape(shift.shape[:1] + (1,) * dim + shift.shape[-1:]), values.dtype
             )
         parts, shift = _fixed_point(values, tuple(range(values.ndim - 1)))
-        sums = _raw_scatter(base, parts, shape)
+        sums = _raw_scatter(base, _pad_channels(parts), shape)[..., : parts.shape[-1]]
         return _from_fixed_point(sums, shift.reshape((1,) * dim + shift.shape[-1:]), values.dtype)
 
     dim = len(grid_shape)
