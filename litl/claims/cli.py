@@ -10,6 +10,7 @@ import sys
 from collections.abc import Callable
 
 from litl.claims.failures import cell_records, cells_markdown
+from litl.claims.launch import slice_timings
 from litl.claims.markdown import claims_markdown
 from litl.claims.origins import check_resumable, commits, describe, origins
 from litl.claims.seeds import first_phase_markdown, plot_stuck_seeds
@@ -81,6 +82,49 @@ def _parser() -> argparse.ArgumentParser:
         "this process); refused when the plan's largest cells would not fit the device's memory",
     )
     parser.add_argument(
+        "--slice-seeds",
+        type=int,
+        default=None,
+        metavar="K",
+        help="run each cell as slices of K seeds, each a run of its own under the cell's directory "
+        "(seeds-<first>-<last>), as the jobs of one Hydra multirun; a finished slice is never run "
+        "again and a cell is judged as the union of its slices (default: each cell whole, in one run)",
+    )
+    parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="the cells' seeds are FIRST_SEED, ..., FIRST_SEED + seeds - 1 (default: 0), e.g. "
+        "--first-seed 10 --seeds 20 for seeds 10-29",
+    )
+    parser.add_argument(
+        "--launcher",
+        default="basic",
+        help="the Hydra launcher that runs the slices: basic (one after another, in one process; "
+        "default), joblib (--jobs N at a time), submitit_local (all at once, a process each), "
+        "submitit_slurm (a cluster's array jobs)",
+    )
+    parser.add_argument(
+        "--launcher-option",
+        action="append",
+        default=[],
+        metavar="hydra.launcher.KEY=VALUE",
+        help="a setting of the launcher, repeatable: hydra.launcher.partition=cpu, "
+        "hydra.launcher.timeout_min=240, hydra.launcher.array_parallelism=8",
+    )
+    parser.add_argument(
+        "--slice-threads",
+        choices=("all", "one"),
+        default="all",
+        help="XLA threads of each slice's process on a CPU: all (XLA's default) or one (slices "
+        "side by side, one per core)",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="with --slice-seeds: list every slice still to run with its expected wall time, run nothing",
+    )
+    parser.add_argument(
         "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
     )
     parser.add_argument(
@@ -101,7 +145,23 @@ def _parser() -> argparse.ArgumentParser:
 
 
 # Flags about runs: with --rejudge nothing runs, so any of them other than its default is refused.
-RUN_FLAGS = ("panels", "methods", "comparators", "scale", "seeds", "episodes", "jobs", "report_only", "list")
+RUN_FLAGS = (
+    "panels",
+    "methods",
+    "comparators",
+    "scale",
+    "seeds",
+    "episodes",
+    "jobs",
+    "report_only",
+    "list",
+    "slice_seeds",
+    "first_seed",
+    "launcher",
+    "launcher_option",
+    "slice_threads",
+    "dry_run",
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -175,16 +235,38 @@ def _main(args: argparse.Namespace, command: str) -> int:
                 f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}"
             )
         return 0
-    check_sizes(out, suite, config_of)
-    if not args.report_only:
+    if args.first_seed < 0:
+        raise ClaimsError(f"--first-seed must be 0 or more; got {args.first_seed}")
+    if args.dry_run and args.slice_seeds is None:
+        raise ClaimsError("--dry-run lists the slices still to run: give --slice-seeds K with it")
+    if args.slice_seeds is None:
+        check_sizes(out, suite, config_of)
+    if args.slice_seeds is not None and not args.report_only:
+        from litl.claims.launch import SliceRun, run_slices
+
+        how = SliceRun(
+            args.slice_seeds, args.launcher, args.jobs, tuple(args.launcher_option), args.slice_threads
+        )
+        run_slices(
+            out, suite, scale, range(args.first_seed, args.first_seed + seeds), how, config_of, args.dry_run
+        )
+        if args.dry_run:
+            return 0
+    elif not args.report_only:
+        if args.first_seed:
+            raise ClaimsError("--first-seed needs --slice-seeds (a cell run whole starts at seed 0)")
         check_resumable(out, suite, config_of)
         _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
-    groups, unfinished = load_groups(out, suite, config_of)
+    groups, lacking = load_groups(out, suite, config_of, args.first_seed)
     results = verdicts(groups, args.methods, args.level)
     timings_path = out / "timings.json"
     timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
+    timings.update(slice_timings(out, suite))
+    unfinished = [f"{name}: {what}" for name, what in lacking.items()]
+    for line in unfinished:
+        print(f"litl.claims: not judged: {line}", file=sys.stderr)
     out.mkdir(parents=True, exist_ok=True)
-    judged = [cell for cell in suite if cell.name not in unfinished]
+    judged = [cell for cell in suite if cell.name not in lacking]
     notes = _notes(judged, out, args.scale, config_of)
     found = origins(out, judged)
     text = claims_markdown(results, args.level, command, unfinished, timings, notes=notes)

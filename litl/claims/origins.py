@@ -12,11 +12,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import pathlib
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from litl import backend as backend_module
-from litl.claims.suite import Cell, ClaimsError, expected_records, finished_records
+from litl.claims.slices import is_finished, slice_dirs
+from litl.claims.suite import Cell, ClaimsError
 from litl.config import Config
 from litl.records import provenance
 
@@ -81,25 +83,29 @@ def check_resumable(
     commit, dirty = provenance.checkout()
     now = provenance.describe({"litl": _version(), "commit": commit, "dirty": dirty})
     for cell in suite:
-        run_dir = cell.run_dir(out)
-        found = origin(run_dir)
-        config = config_of(cell)
-        if found is None or finished_records(run_dir) >= expected_records(config):
-            continue
-        if found.commit != commit:
-            raise ClaimsError(
-                f"{cell.name} ({run_dir}) was started by {found.litl}; this is {now}. A cell resumed "
-                f"by another litl would mix two programs in one run: resume it from that commit "
-                f"(git worktree add DIR {found.commit or '<its commit>'}), or give another --out. "
-                f"Nothing was changed."
-            )
-        wanted = build_robot(config).config.max_stretch
-        if found.max_stretch != wanted:
-            raise ClaimsError(
-                f"{cell.name} ({run_dir}) was run with a material that {material(found.max_stretch)}; "
-                f"this suite asks for one that {material(wanted)}. Give another --out, or resume it "
-                f"with the material it was made with. Nothing was changed."
-            )
+        for run_dir in slice_dirs(cell.run_dir(out)):
+            found = origin(run_dir)
+            if found is None or is_finished(run_dir):
+                continue
+            _check_origin(cell, run_dir, found, commit, now, build_robot(config_of(cell)).config.max_stretch)
+
+
+def _check_origin(
+    cell: Cell, run_dir: pathlib.Path, found: Origin, commit: str | None, now: str, wanted: float | None
+) -> None:
+    if found.commit != commit:
+        raise ClaimsError(
+            f"{cell.name} ({run_dir}) was started by {found.litl}; this is {now}. A cell resumed "
+            f"by another litl would mix two programs in one run: resume it from that commit "
+            f"(git worktree add DIR {found.commit or '<its commit>'}), or give another --out. "
+            f"Nothing was changed."
+        )
+    if found.max_stretch != wanted:
+        raise ClaimsError(
+            f"{cell.name} ({run_dir}) was run with a material that {material(found.max_stretch)}; "
+            f"this suite asks for one that {material(wanted)}. Give another --out, or resume it "
+            f"with the material it was made with. Nothing was changed."
+        )
 
 
 def _version() -> str:
@@ -110,8 +116,18 @@ def _version() -> str:
 
 def origins(out: str | os.PathLike[str], suite: Sequence[Cell]) -> dict[str, Origin]:
     """{cell name: its origin} of the cells that have a run.json."""
-    found = {cell.name: origin(cell.run_dir(out)) for cell in suite}
+    found = {cell.name: _first_origin(cell.run_dir(out)) for cell in suite}
     return {name: o for name, o in found.items() if o is not None}
+
+
+def _first_origin(cell_dir: pathlib.Path) -> Origin | None:
+    """The origin of a cell run whole, or of its first slice (`litl.claims.slices.read_cell`
+    refuses slices of different commits)."""
+    for run_dir in slice_dirs(cell_dir):
+        found = origin(run_dir)
+        if found is not None:
+            return found
+    return None
 
 
 def commits(found: dict[str, Origin]) -> dict[str, list[str]]:

@@ -125,16 +125,16 @@ def describe(planned: Sequence[PlannedCell], jobs: int) -> list[str]:
     lines = []
     for p in planned:
         memory = "" if p.device_bytes is None else f", {p.device_bytes / 2**20:,.0f} MiB"
-        lines.append(f"  {p.cell.name}: {p.records_left} records left, ~{_duration(p.seconds)}{memory}")
+        lines.append(f"  {p.cell.name}: {p.records_left} records left, ~{duration(p.seconds)}{memory}")
     total = sum(p.seconds for p in planned)
     lines.append(
-        f"  {len(planned)} cells, ~{_duration(total)} one at a time; ~{_duration(wall_time(planned, jobs))} "
+        f"  {len(planned)} cells, ~{duration(total)} one at a time; ~{duration(wall_time(planned, jobs))} "
         f"with {jobs} at once (estimates from one measured iteration per panel)"
     )
     return lines
 
 
-def _duration(seconds: float) -> str:
+def duration(seconds: float) -> str:
     if seconds < 90:
         return f"{seconds:.0f} s"
     if seconds < 5400:

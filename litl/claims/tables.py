@@ -14,12 +14,13 @@ import numpy as np
 from litl.claims.cuts import CUT, with_cuts
 from litl.claims.estimates import Estimate
 from litl.claims.origins import Origin, material
-from litl.claims.suite import PANELS, Cell, expected_records, finished_records
+from litl.claims.slices import lacking, read_cell
+from litl.claims.suite import PANELS, Cell
 from litl.claims.verdicts import CLAIMS, Verdict, judge, retraining_effects, with_holm
 from litl.config import Config
 from litl.records.formatting import format_number
 from litl.report import figures
-from litl.report.runs import Group, load_run
+from litl.report.runs import Group
 from litl.report.stats import curves, table1
 
 CSV_FIELDS = (
@@ -83,20 +84,26 @@ Groups = dict[tuple[str, str], dict[str, Group]]
 
 
 def load_groups(
-    out: str | os.PathLike[str], suite: list[Cell], config_of: Callable[[Cell], Config]
-) -> tuple[Groups, list[str]]:
-    """{(method, panel): {variant: Group}} of the finished cells, and the unfinished cells'
-    names. `config_of(cell)` gives a cell's composed config (for its expected length)."""
+    out: str | os.PathLike[str],
+    suite: list[Cell],
+    config_of: Callable[[Cell], Config],
+    first_seed: int = 0,
+) -> tuple[Groups, dict[str, str]]:
+    """{(method, panel): {variant: Group}} of the cells whose every seed has finished (a cell
+    run whole, or the union of its slices: `litl.claims.slices`), and {cell name: what it still
+    lacks} of the others. `config_of(cell)` gives a cell's composed config (its seeds and size);
+    the cell's seeds are ``first_seed, ..., first_seed + seeds - 1``."""
     groups: Groups = {}
-    unfinished = []
+    unfinished: dict[str, str] = {}
     for cell in suite:
-        run_dir = cell.run_dir(out)
-        if finished_records(run_dir) < expected_records(config_of(cell)):
-            unfinished.append(cell.name)
+        config = config_of(cell)
+        seeds = range(first_seed, first_seed + config.seeds)
+        found = read_cell(cell.run_dir(out), seeds, config.loop.episodes, config.loop.iterations)
+        if not found.complete:
+            unfinished[cell.name] = lacking(found, seeds)
             continue
-        run = load_run(run_dir)
         groups.setdefault((cell.method, cell.panel.name), {})[cell.variant.name] = Group(
-            run.robot, cell.variant.name, (run,)
+            found.runs[0].robot, cell.variant.name, found.runs
         )
     return groups, unfinished
 
