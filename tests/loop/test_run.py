@@ -255,10 +255,15 @@ def test_learned_observer_sees_a_window_that_follows_the_robot():
     fields = np.asarray(state.buffer.fields[: int(state.buffer.count)])
     assert fields.shape[1:] == (32, 32, 2) and len(fields) == 2
     # The robot (nonzero velocity) sits in the middle of the window, not at an edge: its
-    # occupied nodes' centre is within a few nodes of the window's centre (horizontally; the
-    # window is clamped at the floor vertically).
+    # occupied nodes' centre is within a few nodes of the window's centre horizontally.
     occupied = np.argwhere(np.any(fields[-1] != 0, axis=-1))
-    assert abs(occupied[:, 0].mean() - 16) < 3 and occupied[:, 1].min() >= 0
+    assert abs(occupied[:, 0].mean() - 16) < 3
+    # Vertically the window is clamped at the floor (centred on the robot it would start ~10 nodes
+    # below the grid): its rows are the grid's first 32, so the robot's lowest occupied node is
+    # where its feet stand in the grid (node 4; the B-spline stencil and 20 steps of motion move
+    # it by a node or two).
+    feet = np.asarray(robot.layout.positions)[:, 1].min() * 64
+    assert abs(occupied[:, 1].min() - feet) <= 2
     assert algorithm.steps == 20
 
 

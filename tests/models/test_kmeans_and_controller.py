@@ -23,11 +23,24 @@ def test_kmeans_features_equal_hand_computed_centroids():
     np.testing.assert_allclose(velocities[order], [[2.0, 0.0], [0.0, -2.0]], atol=1e-6)
 
 
+def _partition(observer):
+    """The clusters as a set of particle sets: the same fit whatever the clusters' numbering."""
+    return frozenset(frozenset(np.flatnonzero(row)) for row in np.asarray(observer.averaging) > 0)
+
+
 def test_kmeans_is_seeded_and_checks_its_input():
     x = np.random.default_rng(0).uniform(size=(200, 3))
     a, b = fit_kmeans(x, 5, seed=3), fit_kmeans(x, 5, seed=3)
     np.testing.assert_array_equal(a.averaging, b.averaging)
     np.testing.assert_allclose(np.asarray(a.averaging).sum(1), 1.0, rtol=1e-6)
+    # The seed is used: uniform points in a cube have many Lloyd fixed points (seeds 0-9 give ten
+    # different partitions of these points), so another seed's k-means++ start ends in another
+    # fit. Compared as partitions, so a mere renumbering of the same clusters would not count.
+    other = fit_kmeans(x, 5, seed=4)
+    assert _partition(other) != _partition(a)
+    for fit in (a, other):  # each is a fit: every point in the cluster of its nearest centre
+        nearest = np.argmin(((x[:, None] - np.asarray(fit.centers)[None]) ** 2).sum(-1), axis=1)
+        np.testing.assert_array_equal(np.argmax(np.asarray(fit.averaging), axis=0), nearest)
     with pytest.raises(ValueError, match="k must be"):
         fit_kmeans(x, 0)
     with pytest.raises(ValueError, match="positions must have shape"):

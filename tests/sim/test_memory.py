@@ -7,6 +7,7 @@ import pytest
 
 from litl.sim import make_rollout
 from litl.sim.memory import (
+    GIB,
     MemoryBudgetError,
     default_budget_bytes,
     plan_checkpointing,
@@ -31,8 +32,25 @@ def test_a_budget_too_small_even_for_segments_says_what_to_change():
         plan_checkpointing(4096, 1, 1000, 10, budget_bytes=10**5)
 
 
-def test_the_default_budget_is_half_the_device_memory():
-    assert 0 < default_budget_bytes() < 2**50
+class _Device:
+    """A device reporting `stats` (or raising, as some CPU devices do) from `memory_stats()`."""
+
+    def __init__(self, stats):
+        self.stats = stats
+
+    def memory_stats(self):
+        if isinstance(self.stats, Exception):
+            raise self.stats
+        return self.stats
+
+
+def test_the_default_budget_is_half_the_device_memory(monkeypatch):
+    # A GPU's own memory (`bytes_limit`), whatever the machine's RAM: exactly half, in bytes.
+    monkeypatch.setattr("os.sysconf", lambda name: {"SC_PAGE_SIZE": 4096, "SC_PHYS_PAGES": 2**20}[name])
+    assert default_budget_bytes(_Device({"bytes_limit": 80 * GIB, "bytes_in_use": GIB})) == 40 * GIB
+    # A device that reports no limit, or raises: half the machine's RAM (4 GiB of 4 KiB pages).
+    for stats in (None, {}, {"bytes_limit": 0}, RuntimeError("no memory stats on this CPU")):
+        assert default_budget_bytes(_Device(stats)) == 2 * GIB
 
 
 @pytest.mark.parametrize("dim", [2, 3])
