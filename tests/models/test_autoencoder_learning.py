@@ -124,7 +124,16 @@ def test_split_is_even_disjoint_and_covers_valid_entries(count):
 def test_split_is_random():
     draw = lambda seed: learning.random_split(20, CAPACITY, jax.random.key(seed)).train
     assert not np.array_equal(draw(0), draw(1))
-    np.testing.assert_array_equal(draw(0), draw(0))
+    # Uniform: over 400 keys each of 20 valid slots is drawn for training with probability 1/2.
+    # Its share has standard deviation sqrt(0.25 / 400) = 0.025; 0.5 +- 0.125 is 5 of them (all
+    # 20 slots inside with probability 1 - 1e-5), while a split that favours some slots fails.
+    keys = jax.random.split(jax.random.key(5), 400)
+    split = jax.jit(jax.vmap(lambda key: learning.random_split(20, CAPACITY, key)))(keys)
+    chosen = np.zeros(CAPACITY)
+    for slots, mask in zip(np.asarray(split.train), np.asarray(split.train_mask), strict=True):
+        chosen[slots[mask]] += 1
+    np.testing.assert_allclose(chosen[:20] / len(keys), 0.5, atol=0.125)
+    assert not chosen[20:].any()
 
 
 def test_only_valid_entries_are_used(learn, params):
