@@ -52,6 +52,7 @@ class Collapse:
         the wall).
       kinetic: (k,) kinetic energy per unit mass at each time (at rest: near 0).
       positions: (n, 2) particle positions at the end.
+      volume: (k,) the body's volume over its initial volume at each time (the mean of det F).
     """
 
     times: np.ndarray
@@ -60,6 +61,7 @@ class Collapse:
     height: float
     kinetic: np.ndarray
     positions: np.ndarray
+    volume: np.ndarray
 
 
 def column(width: float, height: float, n_grid: int) -> np.ndarray:
@@ -122,18 +124,20 @@ def release(
     steps = max(int(round(seconds / dt / frames)), 1)
 
     def observe(state: SimState):
-        return jnp.percentile(state.x[:, 0], 99.5), 0.5 * jnp.mean(jnp.sum(state.v * state.v, axis=-1))
+        kinetic = 0.5 * jnp.mean(jnp.sum(state.v * state.v, axis=-1))
+        return jnp.percentile(state.x[:, 0], 99.5), kinetic, jnp.mean(jnp.linalg.det(state.F))
 
     rollout = jax.jit(
         make_rollout(config, body, lambda p, s, g: jnp.zeros((0,), dtype), steps, observe=observe)
     )
     state = SimState.at_rest(jnp.asarray(x, dtype))
-    fronts, kinetic = [], []
+    fronts, kinetic, volume = [], [], []
     for _ in range(frames):
         state, trajectory = rollout(None, design, state)
-        front, energy = trajectory.observations
+        front, energy, ratio = trajectory.observations
         fronts.append(float(front[-1]) - wall)
         kinetic.append(float(energy[-1]))
+        volume.append(float(ratio[-1]))
     positions = np.asarray(state.x, np.float64)
     near_wall = positions[:, 0] < wall + width
     top = float(np.percentile(positions[near_wall, 1], 99.5)) - wall if near_wall.any() else 0.0
@@ -144,6 +148,7 @@ def release(
         height=top,
         kinetic=np.asarray(kinetic),
         positions=positions,
+        volume=np.asarray(volume),
     )
 
 
