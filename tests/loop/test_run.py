@@ -199,14 +199,24 @@ def test_open_loop_sinusoid_baseline_learns_without_an_observer(tmp_path):
     from litl.config import SettingsError
     from litl.report import write_report
 
-    config = tiny_config(observer={"kind": "none"}, controller={"kind": "sinusoid", "learning_rate": 0.1})
+    # The design fixed (loop.codesign=false), so that only the sinusoids' own learning moves the loss.
+    config = tiny_config(
+        observer={"kind": "none"},
+        controller={"kind": "sinusoid", "learning_rate": 0.1},
+        loop={"codesign": False},
+    )
     result = run(tiny_robot(), config, tmp_path, progress=False)
-    losses = [r["task_loss"] for r in result.metrics if r["seed"] == 0]
-    assert all(np.isfinite(losses)) and losses[-1] != losses[0]  # it does optimize
+    for seed in (0, 1):
+        records = [r for r in result.metrics if r["seed"] == seed]
+        losses = np.asarray([r["task_loss"] for r in records])
+        # Gradient steps of a small learning rate on a smooth loss: it falls at every iteration, by
+        # about 5e-5 each (2026-12-05), four orders above float32 rounding of losses near 1e-4.
+        assert np.all(np.isfinite(losses)) and np.all(np.diff(losses) < 0), losses
+        assert all(r["design"] == records[0]["design"] for r in records)  # the design never moved
     assert all("learning_epochs" not in r and "recon_loss_val" not in r for r in result.metrics)
     assert result.state.controller["params"]["weights"].shape == (2, tiny_robot().n_actuators, 4)
     report = write_report(tmp_path)
-    assert [g["label"] for g in report.summary["groups"]] == ["sinusoid"]
+    assert [g["label"] for g in report.summary["groups"]] == ["sinusoid, control only"]
     with pytest.raises(SettingsError, match="reads no observer.*observer none"):
         tiny_config(controller={"kind": "sinusoid"})
 
