@@ -151,11 +151,20 @@ def test_a_3d_robot_gets_a_bed_over_the_whole_floor():
 
 def test_the_bed_weighs_its_stated_density_whatever_its_depth():
     for depth in ("0.04", "0.05"):
-        robot = build_robot(compose(["world=sand", f"world.sand.depth={depth}", "+scale=smoke"]))
+        robot = build_robot(
+            compose(["world=sand", f"world.sand.depth={depth}", "world.sand.density=2.5", "+scale=smoke"])
+        )
         bed, config = robot.scenery[0], robot.config
         wall = config.boundary.thickness * config.dx
         area = (config.domain_size[0] - 2 * wall) * float(depth)
         assert bed.volume * bed.n_particles == pytest.approx(area, rel=1e-9)
+        # What the simulator is given: the bed's particles' masses (density x volume) sum to the
+        # stated density (2.5 times the robot's) times the layer's area, to float32 rounding.
+        scene, (start, end) = robot.scene(), robot.bodies["sand"]
+        assert end - start == bed.n_particles
+        density = np.asarray(scene.design.density[start:end], np.float64)
+        mass = np.sum(density * np.asarray(scene.body.volume[start:end], np.float64))
+        assert mass == pytest.approx(2.5 * robot.material.density * area, rel=1e-5)
 
 
 def test_the_push_box_task_is_the_boxs_distance_to_its_target():
