@@ -143,6 +143,7 @@ def test_launcher_settings_become_hydra_overrides():
         (["--slice-seeds", "0"], "between 1 and the 2 seeds"),
         (["--slice-seeds", "3"], "got 3"),
         (["--dry-run"], "give --slice-seeds"),
+        (["--variants", "kmeans,lasso"], "unknown variant(s) ['lasso']"),
         (["--first-seed", "-1", "--slice-seeds", "1"], "--first-seed must be 0 or more"),
     ],
 )

@@ -50,6 +50,13 @@ def _parser() -> argparse.ArgumentParser:
         help="comma-separated methods (default: litl,paper)",
     )
     parser.add_argument(
+        "--variants",
+        type=_names,
+        default=(),
+        help="comma-separated variants to run or judge, in this order (default: every variant of "
+        "the panels), e.g. --variants kmeans,vae to run k-means' cells first",
+    )
+    parser.add_argument(
         "--comparators",
         type=_names,
         default=(),
@@ -147,6 +154,7 @@ def _parser() -> argparse.ArgumentParser:
 # Flags about runs: with --rejudge nothing runs, so any of them other than its default is refused.
 RUN_FLAGS = (
     "panels",
+    "variants",
     "methods",
     "comparators",
     "scale",
@@ -172,6 +180,20 @@ def main(argv: list[str] | None = None) -> int:
         if args.rejudge is not None:
             return _rejudge(args, parser, command)
         return _main(args, command)
+
+
+def _only_variants(suite: list[Cell], names: tuple[str, ...]) -> list[Cell]:
+    """The cells of `suite` whose variant is one of `names`, in the order of `names` (all of
+    `suite` when none are named)."""
+    if not names:
+        return suite
+    known = list(dict.fromkeys(cell.variant.name for cell in suite))
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ClaimsError(
+            f"unknown variant(s) {unknown} in these panels; choose from {known} (--variants kmeans,vae)"
+        )
+    return [cell for name in names for cell in suite if cell.variant.name == name]
 
 
 def _rejudge(args: argparse.Namespace, parser: argparse.ArgumentParser, command: str) -> int:
@@ -218,7 +240,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
         raise ClaimsError(f"--seeds must be at least 2 (a claim needs an interval); got {seeds}")
     if not 0 < args.level < 1:
         raise ClaimsError(f"--level must lie in (0, 1), e.g. 0.9; got {args.level}")
-    suite = cells(args.panels, args.methods, args.comparators)
+    suite = _only_variants(cells(args.panels, args.methods, args.comparators), args.variants)
     out = pathlib.Path(args.out)
     configs: dict[str, Config] = {}
 
