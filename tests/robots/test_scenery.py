@@ -92,9 +92,11 @@ def test_water_is_a_fluid_as_dense_as_the_robot():
     )
 
 
-def test_a_biped_walks_on_sand_and_in_water_differently_than_on_the_floor():
+def test_open_loop_legs_move_a_biped_otherwise_on_sand_and_in_water_than_on_the_floor():
     """Open-loop legs on sand and in water: the bed gives under the feet (it is displaced) and
-    the rollout stays finite; the same legs on the floor walk another distance."""
+    the rollout stays finite; the same legs on the floor carry the biped another distance. (These
+    arbitrary sinusoids are not a walk: on the floor the biped shuffles 0.8 cells backwards;
+    a walk needs a trained controller, which the loop's tests train.)"""
     distances = {}
     for world in ("flat", "sand", "water"):
         robot = build_robot(compose([f"world={world}", "+scale=smoke"]))
@@ -108,10 +110,14 @@ def test_a_biped_walks_on_sand_and_in_water_differently_than_on_the_floor():
         own = robot.own(state)
         distances[world] = float(jnp.mean(own.x[:, 0]) - jnp.mean(robot.own(scene.state).x[:, 0]))
         if world != "flat":
+            assert len(robot.scenery) == 1, world  # the bed is there
             bed = np.asarray(state.x[robot.n_particles :]) - np.asarray(scene.state.x[robot.n_particles :])
             assert np.abs(bed).max() > 0.2 * scene.config.dx, world  # the feet pushed the bed
-    assert distances["sand"] != pytest.approx(distances["flat"], abs=1e-4)
-    assert distances["water"] != pytest.approx(distances["flat"], abs=1e-4)
+    # Another distance by a quarter of a cell at least, a displacement the grid resolves (measured
+    # 2026-12-05 at dx 1/32: floor -0.77 cells, sand -0.17, water +1.28), not float32 rounding.
+    cell = scene.config.dx
+    assert abs(distances["sand"] - distances["flat"]) > 0.25 * cell
+    assert abs(distances["water"] - distances["flat"]) > 0.25 * cell
 
 
 def test_bad_beds_are_refused_before_anything_runs():
