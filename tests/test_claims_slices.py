@@ -263,3 +263,26 @@ def test_a_cell_in_two_slices_runs_through_submitit_local_and_judges_as_one_dire
     assert "paper/fig4b/kmeans/seeds-3-3: ~" in printed and "rate of this cell's finished slices" in printed
     assert not (sliced / "runs/paper/fig4b/kmeans/seeds-2-2").exists()
     shutil.rmtree(whole)
+
+
+def test_the_records_of_finished_slices_are_copied_without_their_checkpoints(tmp_path):
+    out, dest = tmp_path / "out", tmp_path / "kept"
+    cell_dir = VAE.run_dir(out)
+    done = write_slice(cell_dir, 0, 2)
+    (done / "checkpoints" / "4").mkdir(parents=True)
+    (done / "checkpoints" / "4" / "state").write_bytes(b"\0" * 1000)
+    (done / "timing.json").write_text('{"seconds": 12.0, "finished": true}')
+    write_slice(cell_dir, 2, 2, records=3, ended=False)  # under way: not copied
+    from litl.claims.slices import copy_records
+
+    written = copy_records(out, VAE, dest)
+    assert [p.name for p in written] == ["seeds-0-1"]
+    kept = dest / done.relative_to(out)
+    assert sorted(p.name for p in kept.iterdir()) == [
+        "final.json",
+        "metrics.jsonl",
+        "run.json",
+        "timing.json",
+    ]
+    assert (kept / "metrics.jsonl").read_text() == (done / "metrics.jsonl").read_text()
+    assert copy_records(out, VAE, dest) == []  # already there: left as it is

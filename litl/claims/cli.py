@@ -132,6 +132,14 @@ def _parser() -> argparse.ArgumentParser:
         help="with --slice-seeds: list every slice still to run with its expected wall time, run nothing",
     )
     parser.add_argument(
+        "--copy-records-to",
+        metavar="DIR",
+        default=None,
+        help="copy the records of every finished run or slice (run.json, metrics, learning records, "
+        "slice.json, timing.json; no checkpoints: a few hundred KB each) to the same place under "
+        "DIR, e.g. a folder of the repository to commit them as each slice ends",
+    )
+    parser.add_argument(
         "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
     )
     parser.add_argument(
@@ -169,6 +177,7 @@ RUN_FLAGS = (
     "launcher_option",
     "slice_threads",
     "dry_run",
+    "copy_records_to",
 )
 
 
@@ -280,6 +289,12 @@ def _main(args: argparse.Namespace, command: str) -> int:
         check_resumable(out, suite, config_of)
         _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
     groups, lacking = load_groups(out, suite, config_of, args.first_seed)
+    if args.copy_records_to is not None:
+        from litl.claims.slices import copy_records
+
+        for cell in suite:
+            for target in copy_records(out, cell, pathlib.Path(args.copy_records_to)):
+                print(f"litl.claims: records of {target.relative_to(args.copy_records_to)} -> {target}")
     results = verdicts(groups, args.methods, args.level)
     timings_path = out / "timings.json"
     timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}

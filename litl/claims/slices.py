@@ -293,3 +293,40 @@ def is_finished(run_dir: pathlib.Path) -> bool:
         return False
     with open(metrics) as file:
         return sum(1 for line in file if line.strip()) >= wanted
+
+
+# What a finished slice keeps beyond its checkout (a few hundred KB): its records, not its
+# checkpoints (checkpoints/, best/, final/ parameters, tensorboard/).
+RECORD_FILES = (
+    "run.json",
+    "metrics.jsonl",
+    "learning.jsonl",
+    "final.json",
+    "best.json",
+    PLAN_FILE,
+    TIMING_FILE,
+)
+
+
+def copy_records(out: pathlib.Path, cell: Cell, dest: pathlib.Path) -> list[pathlib.Path]:
+    """Copy the records (`RECORD_FILES`) of each finished slice of `cell` under `out` to the same
+    place under `dest` (e.g. a folder of the repository, to commit them); returns the slice
+    directories written. A slice whose records are there already is left as it is."""
+    import shutil
+
+    written = []
+    for run_dir in slice_dirs(cell.run_dir(out)):
+        if not is_finished(run_dir):
+            continue
+        target = dest / run_dir.relative_to(out)
+        if (
+            all((target / name).exists() == (run_dir / name).exists() for name in RECORD_FILES)
+            and (target / "metrics.jsonl").exists()
+        ):
+            continue
+        target.mkdir(parents=True, exist_ok=True)
+        for name in RECORD_FILES:
+            if (run_dir / name).exists():
+                shutil.copy2(run_dir / name, target / name)
+        written.append(target)
+    return written
