@@ -88,6 +88,29 @@ def _parser() -> argparse.ArgumentParser:
         help="cells run at once, each in a process of its own sharing the device (default: 1, in "
         "this process); refused when the plan's largest cells would not fit the device's memory",
     )
+    _add_slice_arguments(parser)
+    parser.add_argument(
+        "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
+    )
+    parser.add_argument(
+        "--report-only", action="store_true", help="run nothing; write the results of what has finished"
+    )
+    parser.add_argument(
+        "--list", action="store_true", help="print each run's command line and whether it has finished"
+    )
+    parser.add_argument(
+        "--rejudge",
+        metavar="CLAIMS_CSV",
+        default=None,
+        help="run nothing: judge the rows of a claims.csv written earlier again by the current rules, "
+        "from its means, intervals (at --level) and seed counts, into OUT/claims.md and OUT/claims.csv "
+        "(rows whose rule needs the runs say so)",
+    )
+    return parser
+
+
+def _add_slice_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of a suite run in seed slices (`litl.claims.slices`, `litl.claims.launch`)."""
     parser.add_argument(
         "--slice-seeds",
         type=int,
@@ -139,24 +162,6 @@ def _parser() -> argparse.ArgumentParser:
         "slice.json, timing.json; no checkpoints: a few hundred KB each) to the same place under "
         "DIR, e.g. a folder of the repository to commit them as each slice ends",
     )
-    parser.add_argument(
-        "--level", type=float, default=0.9, help="confidence level of intervals and bands (default: 0.9)"
-    )
-    parser.add_argument(
-        "--report-only", action="store_true", help="run nothing; write the results of what has finished"
-    )
-    parser.add_argument(
-        "--list", action="store_true", help="print each run's command line and whether it has finished"
-    )
-    parser.add_argument(
-        "--rejudge",
-        metavar="CLAIMS_CSV",
-        default=None,
-        help="run nothing: judge the rows of a claims.csv written earlier again by the current rules, "
-        "from its means, intervals (at --level) and seed counts, into OUT/claims.md and OUT/claims.csv "
-        "(rows whose rule needs the runs say so)",
-    )
-    return parser
 
 
 # Flags about runs: with --rejudge nothing runs, so any of them other than its default is refused.
