@@ -215,8 +215,14 @@ def test_environments_block_steps_64_environments():
 @pytest.mark.compute_bound
 def test_ppo_block_trains_rejax_ppo_on_a_litl_robot():
     namespace = run_block(PPO_BLOCK)
-    returns = namespace["returns"]
-    assert returns.shape == (3, 128) and bool(jnp.all(jnp.isfinite(returns)))
+    returns = np.asarray(namespace["returns"])
+    assert returns.shape == (3, 128) and np.all(np.isfinite(returns))
+    # PPO trained: the mean return of the last evaluation's 128 episodes exceeds the untrained
+    # policy's by 3 standard errors of the difference (statistics of the two means). Measured
+    # 2026-12-05: 0.035 -> 0.081 -> 0.092, standard deviations about 0.06 (a rise of 7 of them).
+    first, last = returns[0], returns[-1]
+    error = np.sqrt(first.var(ddof=1) / len(first) + last.var(ddof=1) / len(last))
+    assert last.mean() > first.mean() + 3 * error, returns.mean(axis=1)
 
 
 def test_scenery_block_puts_a_lump_of_clay_beside_the_robot():
