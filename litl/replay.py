@@ -3,6 +3,7 @@
     python -m litl.replay outputs/demo/biped/vae/<time>                 # seed 0's final robot
     python -m litl.replay RUN_DIR --seed 2 --steps 2000 --out walk.mp4  # longer, another seed
     python -m litl.replay RUN_DIR --which best --color stiffness        # best rollout, by E
+    python -m litl.replay RUN_DIR --design actuators                    # its co-designed muscles
 
 It rebuilds the run's robot and settings (from `.hydra/config.yaml` for a CLI run, else from
 `run.json`), loads the saved controller, design and observer (`final/` or `best/`), simulates
@@ -10,7 +11,14 @@ them and writes, next to `--out` (default `RUN_DIR/replay/seed<N>.gif`):
 
 * the animation (.gif, or .mp4 with ffmpeg): particles coloured by actuation, or by the learned
   Young's modulus per region (`--color stiffness`); 3D robots in perspective;
-* `<name>_design.png`: the robot at rest coloured by its learned stiffness, with the bounds;
+* `<name>_design.png`: what the design space changed, beside the body as built
+  (`litl.viz.bodies.draw_body`): each particle's strongest channel with a legend
+  (``design=actuators``, ``all``), its material as opacity (``geometry``, ``all``), the learned
+  Young's modulus per region where the space co-designed it (``modulus``, ``all``,
+  ``.modulus=true``). `--design KIND` checks that the run co-designed that space: a run that
+  recorded another, or none (its run.json has no design section: made before design spaces
+  existed, or with the robot's own modulus), is named on stderr with what it lacks, and the
+  picture shows what the run holds;
 * `<name>_robot.png` and `<name>_robot.json` (a 2D robot whose actuators were co-designed,
   ``design=actuators``): the co-designed body as a drawing in litl's palette with its legend,
   which ``python -m litl robot.image=<name>_robot.png`` loads back;
@@ -112,6 +120,7 @@ def replay(
     color: str = "actuation",
     stride: int = 10,
     gait: bool = False,
+    design: str | None = None,
 ) -> dict:
     """Simulate a saved robot again and write its animation, design picture and losses.
 
@@ -127,20 +136,28 @@ def replay(
         slip, the pace over the second half, the stance's change, a side view) into
         `<out stem>_gait.png` and the summary's ``gait``; replaying more `steps` than the run's
         tells a steady gait (it keeps its pace) from a lunge or a stretch (it does not).
+      design: the design space whose body to draw (``actuators``, ``geometry``, ``all``,
+        ``modulus``); None: the run's own. A run that did not co-design it is named on stderr
+        with what it lacks (`design_note`), and its own design is drawn.
 
     Returns:
       The summary written to `<out>.json` (seed, steps, task_loss, components, recorded_loss,
-      files, and gait if asked).
+      files, the design note where there is one, and gait if asked).
     """
     import numpy as np
 
+    from litl.loop.progress import say
     from litl.sim.safety import escape_margins
 
     run_dir = pathlib.Path(run_dir)
     robot, config, seed, out = _checked(run_dir, seed, steps, out, which, color, stride)
+    note = design_note(run_dir, config, design)
+    if note is not None:
+        say(f"replay: {note}")
     if steps is not None:
         config = config.replace(sim={"steps": steps})
     evaluated = _evaluate(run_dir, robot, config, seed, which)
+    evaluated["title"] = f"{robot.name}, seed {seed} ({which}): design={config.design.kind}"
     files, positions, gait_numbers = _draw(robot, evaluated, out, color, stride, gait)
     one, steps = evaluated["one"], evaluated["steps"]
     space = robot.design_space
@@ -159,6 +176,8 @@ def replay(
         "escape_margin_cells": escape_margins(robot.config, positions),
         "files": files,
     }
+    if note is not None:
+        summary["design_note"] = note
     if gait_numbers is not None:
         summary["gait"] = gait_numbers
     out.with_suffix(".json").write_text(json.dumps(summary, indent=1))
@@ -222,7 +241,7 @@ def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, ga
     returns (files, the recorded positions, the gait's numbers or None)."""
     import numpy as np
 
-    from litl.viz import animate_rollout, draw, draw_gait, record_rollout
+    from litl.viz import animate_rollout, draw_gait, record_rollout
 
     algorithm, one, steps = evaluated["algorithm"], evaluated["one"], evaluated["steps"]
     space = robot.design_space
@@ -246,7 +265,7 @@ def _draw(robot, evaluated: dict, out: pathlib.Path, color: str, stride: int, ga
         robot, positions, actuation, out, fps=20, scenery=terrain, frame_seconds=every, **coloring
     )
     picture = out.with_name(out.stem + "_design.png")
-    _draw_design(robot, design, space.bounds, picture, draw)
+    _draw_design(robot, one["design"], picture, evaluated["title"])
     files = [str(out), str(picture)]
     gait_numbers = None
     if gait:
@@ -345,19 +364,41 @@ def recorded_loss(run_dir: pathlib.Path, which: str, seed: int):
     return entry["final_parameters_loss"] if "final_parameters_loss" in entry else entry["task_loss"]
 
 
-def _draw_design(robot, design, bounds, path: pathlib.Path, draw) -> None:
-    import matplotlib
+def _draw_design(robot, phi, path: pathlib.Path, title: str) -> None:
+    """What the design space changed (`litl.viz.bodies.draw_body`), beside the body as built."""
+    from litl.viz.bodies import draw_body
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    draw_body(robot, phi, path=path, title=title)
 
-    ax = draw(robot, stiffness=design, stiffness_range=bounds, colorbar=True, show_targets=False)
-    values = ", ".join(f"{v:.3g}" for v in design)
-    ax.set_title(
-        f"{robot.name}: learned E per region [{values}] in [{bounds[0]:g}, {bounds[1]:g}]", fontsize=9
-    )
-    ax.figure.savefig(path, dpi=100, bbox_inches="tight")
-    plt.close(ax.figure)
+
+# What each body design space co-designs, as `design_note` names it.
+_DESIGNED = {
+    "actuators": "actuator placement",
+    "geometry": "material (occupancy per particle)",
+    "all": "actuator placement and material",
+    "modulus": "Young's modulus per region",
+}
+
+
+def design_note(run_dir: pathlib.Path, config, asked: str | None) -> str | None:
+    """Why the run cannot show the body of design space `asked` (what it lacks, and what is drawn
+    instead), or None where it co-designed that space (or `asked` is None)."""
+    import litl.designs
+
+    own = config.design.kind
+    if asked is not None and asked not in litl.designs.names():
+        raise ReplayError(f"--design {asked}: choose one of {', '.join(litl.designs.names())}")
+    if asked is None or asked == own or own == "all":  # design=all co-designs every part
+        return None
+    lacks = _DESIGNED.get(asked, f"design={asked}'s design")
+    saved = json.loads((pathlib.Path(run_dir) / "run.json").read_text()).get("config", {})
+    if "design" not in saved:
+        return (
+            f"{run_dir}: its run.json has no design section (a run made before design={asked} "
+            f"existed, or with the robot's own design=modulus), so it holds no {lacks} to draw; "
+            f"drawing the body as built and the Young's modulus per region it co-designed"
+        )
+    return f"{run_dir} co-designed design={own}, not design={asked}: it holds no {lacks}; drawing its own"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -392,6 +433,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--stride", type=int, default=10, help="simulation steps per frame")
     parser.add_argument(
+        "--design",
+        default=None,
+        help="the design space whose body to draw (actuators, geometry, all, modulus; default: "
+        "the run's own); a run without it is named with what it lacks, and its own is drawn",
+    )
+    parser.add_argument(
         "--gait",
         action="store_true",
         help="also write <out>_gait.png and the feet's lifts and slip (walkers)",
@@ -399,7 +446,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     with exit_on_user_error("litl.replay"):
         summary = replay(
-            args.run_dir, args.seed, args.steps, args.out, args.which, args.color, args.stride, args.gait
+            args.run_dir,
+            args.seed,
+            args.steps,
+            args.out,
+            args.which,
+            args.color,
+            args.stride,
+            args.gait,
+            args.design,
         )
     recorded = summary["recorded_loss"]
     same = (

@@ -1,6 +1,7 @@
 """Pictures of robots and animations of rollouts (matplotlib; use the Agg backend headless).
 
 `draw_robot` / `draw_robot_3d` draw a robot in the style of the paper's Fig. 4 insets;
+`draw_body` draws a co-designed body beside the body as built (what its design space changed);
 `record_rollout` simulates a robot and `animate_rollout` writes the result as a GIF or MP4 (a 3D
 rollout framed on the robot's path, `rollout_limits`); `measure_gait` / `draw_gait` say how a
 walker moved (its feet's lifts and slip, a side view).
@@ -35,11 +36,13 @@ __all__ = [
     "rollout_limits",
 ]
 
+from litl.viz.bodies import draw_body  # noqa: E402
 from litl.viz.latent import draw_clusters, draw_latent_sweeps, draw_snapshots  # noqa: E402
 from litl.viz.saliency import animate_saliency, make_saliency, saliency  # noqa: E402
 
 __all__ += [
     "animate_saliency",
+    "draw_body",
     "draw_clusters",
     "draw_latent_sweeps",
     "draw_snapshots",

@@ -141,7 +141,12 @@ def stiffness_norm(stiffness, stiffness_range=None) -> mcolors.Normalize:
 
 
 def particle_colors(
-    layout: Layout, actuation=None, show_regions: bool = False, stiffness=None, stiffness_range=None
+    layout: Layout,
+    actuation=None,
+    show_regions: bool = False,
+    stiffness=None,
+    stiffness_range=None,
+    opacity=None,
 ) -> np.ndarray:
     """(n, 4) RGBA colour of every particle.
 
@@ -154,6 +159,8 @@ def particle_colors(
       stiffness: (R,) Young's modulus per design region (a design φ): colour every particle by
         its region's value on ``viridis`` over `stiffness_range` (default: the values' range);
         cannot be combined with `actuation` or `show_regions`.
+      opacity: (n,) each particle's opacity in [0, 1] (a co-designed body's material, `litl.
+        designs.BodySpace.density`), in every mode; None: opaque.
 
     Pinned particles are dark grey in every mode: they do not move, whatever their labels say.
     """
@@ -182,6 +189,11 @@ def particle_colors(
     else:
         colors[actuated] = actuator_colors(layout.n_actuators)[layout.actuator[actuated]]
     colors[layout.pinned] = mcolors.to_rgba(PINNED_COLOR)
+    if opacity is not None:
+        opacity = np.asarray(opacity, np.float64)
+        if opacity.shape != (n,):
+            raise VizError(f"opacity must have one value per particle, shape ({n},), got {opacity.shape}")
+        colors[:, 3] = np.clip(opacity, 0.0, 1.0)
     return colors
 
 
@@ -274,6 +286,7 @@ def draw_robot(
     stiffness_range=None,
     scenery=None,
     time: float = 0.0,
+    opacity=None,
 ):
     """Draw a 2D robot (rest pose or any state) on a matplotlib Axes.
 
@@ -295,6 +308,7 @@ def draw_robot(
         None: its rest positions. Drawn under the robot, one colour per body.
       time: seconds since the rollout's start: where moving colliders (`Collider.velocity`)
         are drawn.
+      opacity: (n,) each particle's opacity in [0, 1] (see `particle_colors`); None: opaque.
 
     Returns:
       The Axes. Equal aspect, limits the domain. Particle marker sizes follow the Axes' size at the
@@ -308,7 +322,7 @@ def draw_robot(
     _check_dim(name, layout, 2)
     positions = check_positions(name, layout, positions)
     actuation = check_actuation(name, layout, actuation)
-    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range)
+    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range, opacity)
     limits = _view_limits(layout, positions, config, targets)
     if ax is None:
         aspect = (limits[1][1] - limits[1][0]) / (limits[0][1] - limits[0][0])
@@ -433,6 +447,7 @@ def draw_robot_3d(
     elev: float = 20.0,
     azim: float = -65.0,
     limits=None,
+    opacity=None,
 ):
     """Draw a 3D robot as a scatter on a mplot3d Axes (same colour rules as `draw_robot`).
 
@@ -450,6 +465,7 @@ def draw_robot_3d(
       elev, azim: camera angles passed to ``ax.view_init``.
       limits: (3, 2) low and high view limits per simulation axis (x, up, depth), e.g. a
         rollout's bounding box (`rollout_limits`); None: the domain.
+      opacity: (n,) each particle's opacity in [0, 1] (see `particle_colors`); None: opaque.
 
     Returns:
       The 3D Axes.
@@ -461,7 +477,7 @@ def draw_robot_3d(
     _check_dim(name, layout, 3)
     positions = check_positions(name, layout, positions)
     actuation = check_actuation(name, layout, actuation)
-    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range)
+    colors = particle_colors(layout, actuation, show_regions, stiffness, stiffness_range, opacity)
     if ax is None:
         ax = plt.figure(figsize=(6.0, 5.0)).add_subplot(projection="3d")
     elif getattr(ax, "name", "") != "3d":

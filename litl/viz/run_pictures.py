@@ -5,6 +5,9 @@
 * robot.png (the robot with its actuators and targets) and robot.gif (the final controller and
   design of the first seed whose rollout stays finite, particles coloured by actuation; seeds that
   blew up are skipped and named on stderr);
+* body.png, where the design space shapes the body (``design=actuators|geometry|all``): that
+  seed's final body beside the body as built (`litl.viz.bodies.draw_body`: each particle's
+  strongest channel with a legend, its material as opacity, the modulus where it is co-designed);
 * the observer's own pictures (`Observer.pictures`): for the autoencoder snapshots.png (Fig. 1:
   velocity snapshots, latents, reconstructions), latent_sweeps.png (Fig. 8) and saliency.gif; for
   k-means clusters.png (Fig. 7); for PCA its components and reconstructions.
@@ -26,6 +29,7 @@ from litl.loop.progress import say  # noqa: E402
 from litl.report import write_report  # noqa: E402
 from litl.sim import SimulationError  # noqa: E402
 from litl.viz import animate_rollout, draw, record_rollout  # noqa: E402
+from litl.viz.bodies import draw_body  # noqa: E402
 
 
 def draw_run(
@@ -60,6 +64,9 @@ def draw_run(
         figure.savefig(run_dir / "robot.png", dpi=100)
         plt.close(figure)
         written.append(run_dir / "robot.png")
+        if isinstance(state.design, dict):  # a body design space (litl.designs.body)
+            seed = context.seed_ids[chosen if chosen is not None else 0]
+            written.append(_body(robot, state.design, seed, context.record, run_dir))
         if chosen is not None:
             status(
                 "pictures: the observer's representation (clusters, or snapshots, latent sweeps and saliency)"
@@ -83,6 +90,15 @@ def draw_run(
             )
         )
     return written
+
+
+def _body(robot, phi, seed: int, record: dict, run_dir: pathlib.Path) -> pathlib.Path:
+    """body.png: seed `seed`'s final body (design φ `phi`) beside the body as built."""
+    kind = record.get("design", {}).get("kind", "modulus")
+    title = f"{robot.name}, seed {seed}: the final body (design={kind}) beside the body as built"
+    path = run_dir / "body.png"
+    draw_body(robot, phi, path=path, title=title)
+    return path
 
 
 def _first_healthy_seed(robot, algorithm, states, seeds, stride):
