@@ -50,13 +50,6 @@ def _parser() -> argparse.ArgumentParser:
         help="comma-separated methods (default: litl,paper)",
     )
     parser.add_argument(
-        "--variants",
-        type=_names,
-        default=(),
-        help="comma-separated variants to run or judge, in this order (default: every variant of "
-        "the panels), e.g. --variants kmeans,vae to run k-means' cells first",
-    )
-    parser.add_argument(
         "--comparators",
         type=_names,
         default=(),
@@ -110,7 +103,15 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _add_slice_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags of a suite run in seed slices (`litl.claims.slices`, `litl.claims.launch`)."""
+    """The flags that choose a suite's variants and seeds, and run its cells in seed slices
+    (`litl.claims.slices`, `litl.claims.launch`)."""
+    parser.add_argument(
+        "--variants",
+        type=_names,
+        default=(),
+        help="comma-separated variants to run or judge, in this order (default: every variant of "
+        "the panels), e.g. --variants kmeans,vae to run k-means' cells first",
+    )
     parser.add_argument(
         "--slice-seeds",
         type=int,
@@ -242,7 +243,7 @@ def _print_verdicts(results: list[Verdict]) -> None:
 
 def _main(args: argparse.Namespace, command: str) -> int:
     from litl.app import compose
-    from litl.claims.suite import ClaimsError, check_sizes, finished_records
+    from litl.claims.suite import finished_records
 
     scale = SCALES[args.scale]
     if args.episodes is not None:
@@ -271,35 +272,10 @@ def _main(args: argparse.Namespace, command: str) -> int:
                 f"{' '.join(cell.overrides(scale, seeds))} hydra.run.dir={cell.run_dir(out)}"
             )
         return 0
-    if args.first_seed < 0:
-        raise ClaimsError(f"--first-seed must be 0 or more; got {args.first_seed}")
-    if args.dry_run and args.slice_seeds is None:
-        raise ClaimsError("--dry-run lists the slices still to run: give --slice-seeds K with it")
-    if args.slice_seeds is None:
-        check_sizes(out, suite, config_of)
-    if args.slice_seeds is not None and not args.report_only:
-        from litl.claims.launch import SliceRun, run_slices
-
-        how = SliceRun(
-            args.slice_seeds, args.launcher, args.jobs, tuple(args.launcher_option), args.slice_threads
-        )
-        run_slices(
-            out, suite, scale, range(args.first_seed, args.first_seed + seeds), how, config_of, args.dry_run
-        )
-        if args.dry_run:
-            return 0
-    elif not args.report_only:
-        if args.first_seed:
-            raise ClaimsError("--first-seed needs --slice-seeds (a cell run whole starts at seed 0)")
-        check_resumable(out, suite, config_of)
-        _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
+    if not _run(args, out, suite, scale, seeds, config_of):
+        return 0
     groups, lacking = load_groups(out, suite, config_of, args.first_seed)
-    if args.copy_records_to is not None:
-        from litl.claims.slices import copy_records
-
-        for cell in suite:
-            for target in copy_records(out, cell, pathlib.Path(args.copy_records_to)):
-                print(f"litl.claims: records of {target.relative_to(args.copy_records_to)} -> {target}")
+    _copy_records(out, suite, args.copy_records_to)
     results = verdicts(groups, args.methods, args.level)
     timings_path = out / "timings.json"
     timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
@@ -324,6 +300,54 @@ def _main(args: argparse.Namespace, command: str) -> int:
     _print_verdicts(results)
     print(out / "claims.md")
     return 0
+
+
+def _run(
+    args: argparse.Namespace,
+    out: pathlib.Path,
+    suite: list[Cell],
+    scale: Scale,
+    seeds: int,
+    config_of: Callable[[Cell], Config],
+) -> bool:
+    """Run what the flags ask for (cells whole, or in seed slices); False: a dry run, nothing
+    more to write."""
+    from litl.claims.suite import check_sizes
+
+    if args.first_seed < 0:
+        raise ClaimsError(f"--first-seed must be 0 or more; got {args.first_seed}")
+    if args.dry_run and args.slice_seeds is None:
+        raise ClaimsError("--dry-run lists the slices still to run: give --slice-seeds K with it")
+    if args.slice_seeds is None:
+        check_sizes(out, suite, config_of)
+    if args.slice_seeds is not None and not args.report_only:
+        from litl.claims.launch import SliceRun, run_slices
+
+        how = SliceRun(
+            args.slice_seeds, args.launcher, args.jobs, tuple(args.launcher_option), args.slice_threads
+        )
+        run_slices(
+            out, suite, scale, range(args.first_seed, args.first_seed + seeds), how, config_of, args.dry_run
+        )
+        if args.dry_run:
+            return False
+    elif not args.report_only:
+        if args.first_seed:
+            raise ClaimsError("--first-seed needs --slice-seeds (a cell run whole starts at seed 0)")
+        check_resumable(out, suite, config_of)
+        _plan_and_run(out, suite, scale, seeds, args.jobs, config_of)
+    return True
+
+
+def _copy_records(out: pathlib.Path, suite: list[Cell], dest: str | None) -> None:
+    """`--copy-records-to DIR`: the finished runs' and slices' records, copied to DIR."""
+    if dest is None:
+        return
+    from litl.claims.slices import copy_records
+
+    for cell in suite:
+        for target in copy_records(out, cell, pathlib.Path(dest)):
+            print(f"litl.claims: records of {target.relative_to(dest)} -> {target}")
 
 
 def _notes(
