@@ -279,3 +279,17 @@ def test_the_records_of_finished_slices_are_copied_without_their_checkpoints(tmp
     ]
     assert (kept / "metrics.jsonl").read_text() == (done / "metrics.jsonl").read_text()
     assert copy_records(out, VAE, dest) == []  # already there: left as it is
+
+
+def test_a_slice_under_way_made_by_another_commit_is_not_resumed(tmp_path, capsys):
+    out = tmp_path / "out"
+    write_slice(VAE.run_dir(out), 0, 1, commit="0" * 40, records=1, ended=False)
+    argv = ["--out", str(out), "--scale", "smoke", "--panels", "fig4b", "--methods", "paper"]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--variants", "vae", "--seeds", "2", "--slice-seeds", "1", "--dry-run"])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err
+    assert (
+        "paper/fig4b/vae" in error and "seeds-0-0) was started by" in error and "Nothing was changed" in error
+    )
+    assert sorted(p.name for p in VAE.run_dir(out).iterdir()) == ["seeds-0-0"]

@@ -323,6 +323,8 @@ def _run(
     if args.slice_seeds is not None and not args.report_only:
         from litl.claims.launch import SliceRun, run_slices
 
+        check_resumable(out, suite, config_of)  # a slice under way resumes only by its own commit
+
         how = SliceRun(
             args.slice_seeds, args.launcher, args.jobs, tuple(args.launcher_option), args.slice_threads
         )
