@@ -401,8 +401,8 @@ def design_note(run_dir: pathlib.Path, config, asked: str | None) -> str | None:
     return f"{run_dir} co-designed design={own}, not design={asked}: it holds no {lacks}; drawing its own"
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Replay a run; returns 0 (bad input: exit status 2 and a one-line message)."""
+def _parser() -> argparse.ArgumentParser:
+    """The command line of `main`."""
     parser = argparse.ArgumentParser(
         prog="python -m litl.replay",
         description="Simulate a trained robot from a run directory again and write its "
@@ -443,7 +443,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="also write <out>_gait.png and the feet's lifts and slip (walkers)",
     )
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Replay a run; returns 0 (bad input: exit status 2 and a one-line message)."""
+    args = _parser().parse_args(argv)
     with exit_on_user_error("litl.replay"):
         summary = replay(
             args.run_dir,
