@@ -38,9 +38,10 @@ def help_text() -> str:
     return done.stdout
 
 
-def test_the_six_commands_are_found():
+def test_the_seven_commands_are_found():
     assert _commands() == {
         "litl.claims",
+        "litl.claims.job",
         "litl.gradcheck",
         "litl.replay",
         "litl.report",

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import pathlib
+import sys
 
 import hydra
 from hydra.core.config_store import ConfigStore
@@ -46,5 +47,18 @@ def main(cfg: SliceJob) -> None:
         run_slice(pathlib.Path(cfg.out), cfg.slice)
 
 
+USAGE = """usage: python -m litl.claims.job [--multirun] out=OUT slice=METHOD/PANEL/VARIANT/seeds-F-L[,...]
+                                 [xla_threads=1] [hydra/launcher=NAME hydra.launcher.KEY=VALUE ...]
+
+Run (or resume) seed slices of a claims cell as the jobs of a Hydra multirun, each from the
+slice.json that `python -m litl.claims --slice-seeds K` wrote into its run directory
+OUT/runs/<slice>. `python -m litl.claims --slice-seeds K` starts it for you; by hand it takes any
+Hydra launcher. Hydra's own help: --hydra-help.
+"""
+
+
 if __name__ == "__main__":
+    if any(arg in ("-h", "--help") for arg in sys.argv[1:]):
+        print(USAGE, end="")
+        raise SystemExit(0)
     main()
