@@ -13,6 +13,7 @@ Each slice's run directory `OUT/runs/<slice>` must hold the `slice.json` that `l
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 import pathlib
 import sys
@@ -43,6 +44,8 @@ def main(cfg: SliceJob) -> None:
 
     if cfg.xla_threads == 1:  # read when JAX starts its CPU client, which has not happened yet
         os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {ONE_XLA_THREAD}".strip()
+    for name in ("absl", "jax._src.xla_bridge", "matplotlib"):  # as `python -m litl` quiets them
+        logging.getLogger(name).setLevel(logging.WARNING)
     with exit_on_user_error("python -m litl.claims.job", os_errors=True):
         run_slice(pathlib.Path(cfg.out), cfg.slice)
 
