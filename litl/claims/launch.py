@@ -37,7 +37,7 @@ from litl.claims.slices import (
     slice_dirs,
     timing,
 )
-from litl.claims.suite import Cell, ClaimsError, Scale
+from litl.claims.suite import Cell, ClaimsError, Scale, finished_records
 from litl.config import Config
 
 LAUNCHERS = ("basic", "joblib", "submitit_local", "submitit_slurm")
@@ -261,7 +261,7 @@ def run_slices(
                     f"already in finished slices of {cell.name} cut otherwise; run it with the "
                     f"--slice-seeds those slices were cut with"
                 )
-            done = _records(piece.run_dir(out)) / max(
+            done = finished_records(piece.run_dir(out)) / max(
                 1, piece.count * config.loop.episodes * config.loop.iterations
             )
             if rate is not None:
@@ -309,14 +309,6 @@ def _rate(found: CellRuns) -> float | None:
         if timing(run.path).get("finished")
     ]
     return sum(rates) / len(rates) if rates else None
-
-
-def _records(run_dir: pathlib.Path) -> int:
-    metrics = run_dir / "metrics.jsonl"
-    if not metrics.exists():
-        return 0
-    with open(metrics) as file:
-        return sum(1 for line in file if line.strip())
 
 
 def slice_timings(out: pathlib.Path, suite: Sequence[Cell]) -> dict[str, float]:

@@ -26,7 +26,7 @@ import re
 from collections.abc import Sequence
 from typing import Any
 
-from litl.claims.suite import Cell, ClaimsError, Scale
+from litl.claims.suite import Cell, ClaimsError, Scale, finished_records
 from litl.report.runs import Run, load_run
 
 SLICE_DIR = re.compile(r"seeds-(\d+)-(\d+)")
@@ -288,11 +288,7 @@ def is_finished(run_dir: pathlib.Path) -> bool:
     config = json.loads(path.read_text()).get("config", {})
     loop = config.get("loop", {})
     wanted = int(config.get("seeds", 1)) * int(loop.get("episodes", 0)) * int(loop.get("iterations", 0))
-    metrics = run_dir / "metrics.jsonl"
-    if not metrics.exists():
-        return False
-    with open(metrics) as file:
-        return sum(1 for line in file if line.strip()) >= wanted
+    return (run_dir / "metrics.jsonl").exists() and finished_records(run_dir) >= wanted
 
 
 # What a finished slice keeps beyond its checkout (a few hundred KB): its records, not its
