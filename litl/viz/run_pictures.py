@@ -8,6 +8,8 @@
 * body.png, where the design space shapes the body (``design=actuators|geometry|all``): that
   seed's final body beside the body as built (`litl.viz.bodies.draw_body`: each particle's
   strongest channel with a legend, its material as opacity, the modulus where it is co-designed);
+  with several seeds, every seed's final body too, as ``bodies/seed<S>.png`` (seeds differ in
+  where their muscles and material went);
 * the observer's own pictures (`Observer.pictures`): for the autoencoder snapshots.png (Fig. 1:
   velocity snapshots, latents, reconstructions), latent_sweeps.png (Fig. 8) and saliency.gif; for
   k-means clusters.png (Fig. 7); for PCA its components and reconstructions.
@@ -65,8 +67,7 @@ def draw_run(
         plt.close(figure)
         written.append(run_dir / "robot.png")
         if isinstance(state.design, dict):  # a body design space (litl.designs.body)
-            seed = context.seed_ids[chosen if chosen is not None else 0]
-            written.append(_body(robot, state.design, seed, context.record, run_dir))
+            written += draw_seed_bodies(robot, result.state, chosen or 0, context, run_dir)
         if chosen is not None:
             status(
                 "pictures: the observer's representation (clusters, or snapshots, latent sweeps and saliency)"
@@ -92,13 +93,22 @@ def draw_run(
     return written
 
 
-def _body(robot, phi, seed: int, record: dict, run_dir: pathlib.Path) -> pathlib.Path:
-    """body.png: seed `seed`'s final body (design φ `phi`) beside the body as built."""
-    kind = record.get("design", {}).get("kind", "modulus")
-    title = f"{robot.name}, seed {seed}: the final body (design={kind}) beside the body as built"
-    path = run_dir / "body.png"
-    draw_body(robot, phi, path=path, title=title)
-    return path
+def draw_seed_bodies(robot, states, chosen: int, context, run_dir: pathlib.Path) -> list[pathlib.Path]:
+    """body.png: the final body of seed index `chosen` beside the body as built; with several
+    seeds, bodies/seed<S>.png for every seed S too."""
+    kind = context.record.get("design", {}).get("kind", "modulus")
+
+    def drawn(index: int, path: pathlib.Path) -> pathlib.Path:
+        seed = context.seed_ids[index]
+        title = f"{robot.name}, seed {seed}: the final body (design={kind}) beside the body as built"
+        draw_body(robot, seed_slice(states, index).design, path=path, title=title)
+        return path
+
+    written = [drawn(chosen, run_dir / "body.png")]
+    if len(context.seed_ids) > 1:
+        (run_dir / "bodies").mkdir(exist_ok=True)
+        written += [drawn(i, run_dir / "bodies" / f"seed{s}.png") for i, s in enumerate(context.seed_ids)]
+    return written
 
 
 def _first_healthy_seed(robot, algorithm, states, seeds, stride):

@@ -139,3 +139,38 @@ def test_an_unknown_design_space_asked_of_the_replay_is_refused_naming_the_choic
         main([str(smoke_runs("modulus")), "--design", "muscles"])
     assert exit_info.value.code == 2
     assert "--design muscles: choose one of" in capsys.readouterr().err
+
+
+def _share_of_colour(path, colour, columns: slice) -> float:
+    """The share of the picture's pixels in `columns` within 8 levels of `colour` (RGB, 0-1)."""
+    with Image.open(path) as picture:
+        pixels = np.asarray(picture.convert("RGB"), float)[:, columns]
+    target = np.asarray(to_rgba(colour)[:3]) * 255
+    return float((np.abs(pixels - target).max(-1) < 8).mean())
+
+
+def test_a_run_of_several_seeds_draws_every_seeds_own_body(tmp_path):
+    import collections
+    import types
+
+    from litl.viz.run_pictures import draw_seed_bodies
+
+    robot = litl.designs.apply(tiny_robot(), "actuators")
+    phi = dict(robot.design_space.initial())
+    moved = dict(phi)  # seed 7's passive particles all became actuator 1's muscle
+    passive = np.flatnonzero(robot.layout.actuator < 0)
+    moved["placement"] = phi["placement"].at[passive, 1].set(10.0)
+    States = collections.namedtuple("States", "design")
+    states = States(design={k: jnp.stack([phi[k], moved[k]]) for k in phi})
+    context = types.SimpleNamespace(seed_ids=[3, 7], record={"design": {"kind": "actuators"}})
+    written = draw_seed_bodies(robot, states, 0, context, tmp_path)
+    assert written == [tmp_path / "body.png", tmp_path / "bodies/seed3.png", tmp_path / "bodies/seed7.png"]
+    muscle = actuator_colors(robot.layout.n_actuators)[1]
+    with Image.open(tmp_path / "bodies/seed3.png") as picture:
+        width = picture.size[0]
+    placement = slice(width // 2, width)  # the right panel: the final placement
+    # Seed 7's placement panel shows actuator 1's colour where seed 3's shows passive grey.
+    assert _share_of_colour(tmp_path / "bodies/seed7.png", muscle, placement) > 2 * _share_of_colour(
+        tmp_path / "bodies/seed3.png", muscle, placement
+    )
+    assert (tmp_path / "body.png").read_bytes() == (tmp_path / "bodies/seed3.png").read_bytes()
