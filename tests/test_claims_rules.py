@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+import litl
 from litl.claims import rules
 from litl.claims.cli import main
 from litl.claims.rejudge import rejudge
@@ -26,6 +27,7 @@ from litl.claims.verdicts import (
     welch_p_lower,
     with_holm,
 )
+from litl.records import provenance
 from litl.report.stats import confidence_band
 from tests.test_claims import HIGH, LOW, TIGHT, claim, group
 
@@ -249,6 +251,10 @@ def test_the_rejudge_command_writes_the_same_format_without_the_cut_check(tmp_pa
     text = (out / "claims.md").read_text()
     assert "needs the runs, which were not kept" in text and "Re-judged" in text
     assert "| before |" in text
+    # The table names the code that judged it (the runs' commit is another matter: origins).
+    commit, _ = provenance.checkout()
+    judged = f"judged by litl {litl.__version__}" + (f", commit {commit[:12]}" if commit else "")
+    assert judged in text
     assert "needs the runs" in capsys.readouterr().out
 
 

@@ -8,6 +8,7 @@ import math
 from collections.abc import Sequence
 
 from litl.claims.estimates import Estimate, falling
+from litl.claims.origins import judging_litl
 from litl.claims.rules import ALPHA, NEEDS_RUNS, POWER
 from litl.claims.verdicts import CLAIMS, Verdict
 from litl.records.formatting import format_number
@@ -114,10 +115,12 @@ def _intro(
     results: list[Verdict], level: float, command: str, source: str | None, notes: Sequence[str]
 ) -> list[str]:
     family = sum(math.isfinite(v.test_p) or v.verdict == NEEDS_RUNS for v in results)
-    written = f"Written {datetime.date.today().isoformat()} by `{command}`."
+    judge = judging_litl()
+    written = f"Written {datetime.date.today().isoformat()} by `{command}`, judged by {judge}."
     if source is not None:
         written = (
-            f"Re-judged {datetime.date.today().isoformat()} by `{command}` from `{source}`, by the "
+            f"Re-judged {datetime.date.today().isoformat()} by `{command}` from `{source}` "
+            f"(judged by {judge}), by the "
             f"current rules: each side's mean, {level:.0%} interval and n give back its sample "
             f"standard deviation (s = (high − mean) √n / t_{{(1+{level:g})/2, n−1}}), and every "
             f"row is judged again from those. The runs behind the CSV were not kept: a row whose "

@@ -114,6 +114,13 @@ def _version() -> str:
     return __version__
 
 
+def judging_litl() -> str:
+    """The litl that judges now, in words (``litl 0.1.0, commit 1a2b3c4d5e6f``): a table's
+    verdicts are this code's, whichever commit made the runs it reads."""
+    commit, dirty = provenance.checkout()
+    return provenance.describe({"litl": _version(), "commit": commit, "dirty": dirty})
+
+
 def origins(out: str | os.PathLike[str], suite: Sequence[Cell]) -> dict[str, Origin]:
     """{cell name: its origin} of the cells that have a run.json."""
     found = {cell.name: _first_origin(cell.run_dir(out)) for cell in suite}
