@@ -266,6 +266,7 @@ def test_the_records_of_finished_slices_are_copied_without_their_checkpoints(tmp
     (done / "checkpoints" / "4" / "state").write_bytes(b"\0" * 1000)
     (done / "timing.json").write_text('{"seconds": 12.0, "finished": true}')
     write_slice(cell_dir, 2, 2, records=3, ended=False)  # under way: not copied
+    write_slice(cell_dir, 4, 1, ended=False)  # every record, its final evaluation under way: not copied
     from litl.claims.slices import copy_records
 
     written = copy_records(out, VAE, dest)

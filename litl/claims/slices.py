@@ -304,15 +304,23 @@ RECORD_FILES = (
 )
 
 
+def has_ended(run_dir: pathlib.Path) -> bool:
+    """Whether the run in `run_dir` holds every record and has ended: its last learning phase
+    and final evaluation written (`final.json`). A run with every iteration's record but no
+    `final.json` is still running them, or died before it did."""
+    return is_finished(run_dir) and (run_dir / "final.json").exists()
+
+
 def copy_records(out: pathlib.Path, cell: Cell, dest: pathlib.Path) -> list[pathlib.Path]:
-    """Copy the records (`RECORD_FILES`) of each finished slice of `cell` under `out` to the same
-    place under `dest` (e.g. a folder of the repository, to commit them); returns the slice
-    directories written. A slice whose records are there already is left as it is."""
+    """Copy the records (`RECORD_FILES`) of each slice of `cell` under `out` that has ended
+    (`has_ended`) to the same place under `dest` (e.g. a folder of the repository, to commit
+    them); returns the slice directories written. A slice whose records are there already is
+    left as it is."""
     import shutil
 
     written = []
     for run_dir in slice_dirs(cell.run_dir(out)):
-        if not is_finished(run_dir):
+        if not has_ended(run_dir):
             continue
         target = dest / run_dir.relative_to(out)
         if (
