@@ -185,7 +185,7 @@ def test_a_claims_table_names_the_commits_and_materials_of_its_cells(tmp_path, s
 
 def test_a_horizon_other_than_the_committed_plans_is_allowed_and_said():
     from litl.app import compose
-    from litl.claims.plan import PAPER_PLAN, departure_from_plan
+    from litl.claims.plan import COMMITTED_PLANS, PAPER_PLAN, STAGE2_PLAN, departure_from_plan
 
     planned = compose(["experiment=fig4b_biped", "loop.episodes=10", "seeds=10"])
     assert departure_from_plan(planned) is None
@@ -193,6 +193,13 @@ def test_a_horizon_other_than_the_committed_plans_is_allowed_and_said():
     note = departure_from_plan(longer)
     assert note is not None and "20 episodes x 10 iterations" in note and PAPER_PLAN.page in note
     assert (ROOT / PAPER_PLAN.page).exists()  # the plan it names is committed
+    # The second stage's seeds 10-29 were planned; the same size from another first seed was not.
+    stage2 = compose(["experiment=fig4b_biped", "loop.episodes=10", "seeds=20", "seed=10"])
+    assert departure_from_plan(stage2) is None
+    elsewhere = compose(["experiment=fig4b_biped", "loop.episodes=10", "seeds=20", "seed=30"])
+    note = departure_from_plan(elsewhere)
+    assert note is not None and "seeds 30-49" in note and STAGE2_PLAN.page in note
+    assert all((ROOT / plan.page).exists() for plan in COMMITTED_PLANS)
 
 
 def test_a_paper_method_run_made_with_the_strain_limit_resumes_as_it_was_made(tmp_path, capsys):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import pathlib
 import shlex
@@ -285,7 +286,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
         print(f"litl.claims: not judged: {line}", file=sys.stderr)
     out.mkdir(parents=True, exist_ok=True)
     judged = [cell for cell in suite if cell.name not in lacking]
-    notes = _notes(judged, out, args.scale, config_of)
+    notes = _notes(judged, out, args.scale, config_of, args.first_seed)
     found = origins(out, judged)
     text = claims_markdown(results, args.level, command, unfinished, timings, notes=notes)
     cells_section = cells_markdown(cell_records(groups), timings, found)
@@ -353,10 +354,15 @@ def _copy_records(out: pathlib.Path, suite: list[Cell], dest: str | None) -> Non
 
 
 def _notes(
-    judged: list[Cell], out: pathlib.Path, scale: str, config_of: Callable[[Cell], Config]
+    judged: list[Cell],
+    out: pathlib.Path,
+    scale: str,
+    config_of: Callable[[Cell], Config],
+    first_seed: int = 0,
 ) -> list[str]:
     """claims.md's notes: which litl and material made the judged cells (said on stderr too when
-    several commits did), and a paper-scale suite's departure from its committed plan."""
+    several commits did), and a paper-scale suite's departure from its committed plans (its
+    seeds from `first_seed` on)."""
     from litl.claims.plan import departure_from_plan
 
     found = origins(out, judged)
@@ -368,7 +374,9 @@ def _notes(
             f"litl.claims: warning: the cells judged were made by {len(made)} versions of litl ({listing})",
             file=sys.stderr,
         )
-    departure = departure_from_plan(config_of(judged[0])) if judged and scale == "paper" else None
+    departure = None
+    if judged and scale == "paper":
+        departure = departure_from_plan(dataclasses.replace(config_of(judged[0]), seed=first_seed))
     if departure:
         print(f"litl.claims: note: {departure}", file=sys.stderr)
         notes.append(departure)
