@@ -80,8 +80,13 @@ class Layout:
             indices = np.unique(np.asarray(indices, np.int64))
             if not isinstance(name, str) or not name:
                 raise LayoutError(f"group names must be non-empty strings, got {name!r}")
-            if indices.size == 0 or indices[0] < 0 or indices[-1] >= n:
-                raise LayoutError(f"group {name!r} must hold particle indices in [0, {n}), and some")
+            if indices.size == 0:
+                raise LayoutError(f"group {name!r} holds no particle; a group needs at least one")
+            if indices[0] < 0 or indices[-1] >= n:
+                raise LayoutError(
+                    f"group {name!r} holds particle indices outside [0, {n}): "
+                    f"{indices[(indices < 0) | (indices >= n)][:5].tolist()}"
+                )
             groups[name] = indices
         object.__setattr__(self, "groups", groups)
 

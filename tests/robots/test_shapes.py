@@ -125,3 +125,16 @@ def test_extruding_a_2d_layout_keeps_labels_and_volume():
     np.testing.assert_allclose(solid.fiber, [[0, 1, 0]])
     assert len(solid.groups["all"]) == solid.n_particles
     np.testing.assert_array_equal(solid.actuator[: flat.n_particles], flat.actuator)
+
+
+def test_a_group_without_particles_or_with_foreign_indices_is_refused_by_name():
+    import dataclasses
+
+    layout = sample_parts([Part(Box((0, 0), (0.25, 0.125)), groups="body")], DX)
+    with pytest.raises(LayoutError, match="group 'hand' holds no particle"):
+        dataclasses.replace(layout, groups={"body": layout.groups["body"], "hand": np.array([], np.int64)})
+    n = layout.n_particles
+    with pytest.raises(
+        LayoutError, match=rf"group 'body' holds particle indices outside \[0, {n}\): \[{n}\]"
+    ):
+        dataclasses.replace(layout, groups={"body": np.array([0, n])})
