@@ -292,7 +292,7 @@ def _main(args: argparse.Namespace, command: str) -> int:
     cells_section = cells_markdown(cell_records(groups), timings, found)
     (out / "claims.md").write_text(text + "\n".join(cells_section) + ("\n" if cells_section else ""))
     write_csv(results, out / "claims.csv", found)
-    (out / "table1.md").write_text(table1_markdown(groups, args.methods))
+    (out / "table1.md").write_text(table1_markdown(groups, args.methods, scale.label))
     plot_panels(groups, args.methods, out, args.level)
     plot_stuck_seeds(groups, args.methods, out)
     first_phase = first_phase_markdown(groups, args.methods)

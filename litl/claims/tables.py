@@ -209,11 +209,12 @@ def _origin_cells(v: Verdict, found: Mapping[str, Origin]) -> list[str]:
     return [" | ".join(commits), " | ".join(materials)]
 
 
-def table1_markdown(groups: Groups, methods: Sequence[str]) -> str:
+def table1_markdown(groups: Groups, methods: Sequence[str], scale: str = "demo scale") -> str:
     """Table 1 per method from the biped's VAE runs: what retraining cost alone, and what
-    remained after one step, per retraining (mean ± std over seeds), beside the paper's."""
+    remained after one step, per retraining (mean ± std over seeds), beside the paper's.
+    `scale` names the runs' size in the title (a `Scale.label`, e.g. ``paper scale``)."""
     lines = [
-        "# Table 1 at demo size",
+        f"# Table 1 at {scale}",
         "",
         "Per retraining: `retrain_effect` (task objective before retraining minus right "
         "after it) and `retrain_change` (minus after it plus one optimization step), mean "
