@@ -82,8 +82,10 @@ def run_all(
             name, seed = todo.pop(0)
             run_dir = runs / name / f"seed{seed}"
             run_dir.mkdir(parents=True, exist_ok=True)
-            log = open(run_dir / "stderr.log", "wb")
-            process = subprocess.Popen(_command(name, seed, episodes, run_dir, extra), env=env, stdout=log, stderr=log)
+            with open(run_dir / "stderr.log", "wb") as log:  # the child keeps its own descriptor
+                process = subprocess.Popen(
+                    _command(name, seed, episodes, run_dir, extra), env=env, stdout=log, stderr=log
+                )
             running.append((name, seed, process, time.time()))
             print(f"started {name} seed {seed}", flush=True)
         time.sleep(10)
@@ -91,9 +93,14 @@ def run_all(
             name, seed, process, start = item
             if process.poll() is not None:
                 running.remove(item)
-                print(f"ended {name} seed {seed}: exit {process.returncode}, {time.time() - start:.0f} s", flush=True)
+                print(
+                    f"ended {name} seed {seed}: exit {process.returncode}, {time.time() - start:.0f} s",
+                    flush=True,
+                )
                 if process.returncode:
-                    raise SystemExit(f"{name} seed {seed} failed: see {runs / name / f'seed{seed}' / 'stderr.log'}")
+                    raise SystemExit(
+                        f"{name} seed {seed} failed: see {runs / name / f'seed{seed}' / 'stderr.log'}"
+                    )
 
 
 def _records(path: pathlib.Path) -> list[dict]:
@@ -102,8 +109,15 @@ def _records(path: pathlib.Path) -> list[dict]:
 
 def summarize(runs: pathlib.Path, names: list[str], seeds: list[int]) -> dict:
     """Per candidate and seed: the first phase, the controller's gradient norms, the task loss."""
-    out: dict = {"criterion": {"recon_explained": LEARNED_EXPLAINED, "active_units": LEARNED_UNITS,
-                               "p90_bound": P90_BOUND, "order": list(ORDER)}, "candidates": {}}
+    out: dict = {
+        "criterion": {
+            "recon_explained": LEARNED_EXPLAINED,
+            "active_units": LEARNED_UNITS,
+            "p90_bound": P90_BOUND,
+            "order": list(ORDER),
+        },
+        "candidates": {},
+    }
     for name in names:
         per_seed = {}
         for seed in seeds:
@@ -112,8 +126,10 @@ def summarize(runs: pathlib.Path, names: list[str], seeds: list[int]) -> dict:
                 continue
             first = _records(run_dir / "learning.jsonl")[0]
             norms = np.array(
-                [math.nan if m["controller_grad_norm"] is None else m["controller_grad_norm"]
-                 for m in _records(run_dir / "metrics.jsonl")],
+                [
+                    math.nan if m["controller_grad_norm"] is None else m["controller_grad_norm"]
+                    for m in _records(run_dir / "metrics.jsonl")
+                ],
                 dtype=float,
             )
             finite = norms[np.isfinite(norms)]
@@ -145,7 +161,9 @@ def summarize(runs: pathlib.Path, names: list[str], seeds: list[int]) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("runs", type=pathlib.Path)
     parser.add_argument("out", type=pathlib.Path)
     parser.add_argument("--episodes", type=int, default=4)
@@ -161,7 +179,9 @@ def main() -> None:
         run_all(args.runs, args.only, args.seeds, args.episodes, args.jobs, args.extra)
     summary = summarize(args.runs, args.only, args.seeds)
     args.out.write_text(json.dumps(summary, indent=1) + "\n")
-    print(json.dumps({n: c["passes"] for n, c in summary["candidates"].items()}), "chosen:", summary["chosen"])
+    print(
+        json.dumps({n: c["passes"] for n, c in summary["candidates"].items()}), "chosen:", summary["chosen"]
+    )
 
 
 if __name__ == "__main__":
