@@ -253,13 +253,11 @@ class ReplayBufferWithoutActions:
     def upgrade(self, template: ReplayBuffer) -> ReplayBuffer:
         """The current buffer: these snapshots, with zero actions shaped as `template`'s and no
         transitions (`follows` False): what led to them was not recorded."""
-        import numpy as np
-
         return ReplayBuffer(
             fields=self.fields,
             velocities=self.velocities,
-            actions=np.zeros(np.shape(template.actions), template.actions.dtype),
-            follows=np.zeros(np.shape(template.follows), bool),
+            actions=jnp.zeros(jnp.shape(template.actions), template.actions.dtype),
+            follows=jnp.zeros(jnp.shape(template.follows), bool),
             count=self.count,
             cursor=self.cursor,
         )
