@@ -67,7 +67,9 @@ def prediction_error(
 ) -> PredictionError:
     """RMS error of h-step predictions under the recorded actions, and of the constant baseline.
 
-    Jittable (`horizons` static). Args:
+    Jittable (`horizons` static).
+
+    Args:
       step: ``step(z, a) -> z'`` for one (r,) latent and (m,) action (a model's `step`).
       latents: (T, r) encoded latents in time order.
       actions: (T, m) actions[t] led from latents[t - 1] to latents[t].

@@ -201,7 +201,9 @@ def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:
 def chronological(buffer: ReplayBuffer) -> tuple[jnp.ndarray, jnp.ndarray]:
     """The slots in the order their snapshots were stored, and which of them are transitions.
 
-    Jittable (static shapes). Returns:
+    Jittable (static shapes).
+
+    Returns:
       order: (capacity,) int32 slots, oldest snapshot first; the first `count` are valid.
       links: (capacity,) bool, links[t] True where the snapshot in slot order[t] follows the one
         in slot order[t - 1] in its rollout under the action `buffer.actions[order[t]]`: the
