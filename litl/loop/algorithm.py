@@ -270,7 +270,13 @@ def _initial_state(
         design_optimizer=optimization.design_adam.init(design),
         observer=observer_params,
         observer_optimizer=observer_optimizer,
-        buffer=ReplayBuffer.empty(optimization.loop.buffer_capacity, simulation.window.shape, dim, dtype),
+        buffer=ReplayBuffer.empty(
+            optimization.loop.buffer_capacity,
+            simulation.window.shape,
+            dim,
+            dtype,
+            n_actions=simulation.robot.n_actuators,
+        ),
         key=key_data,
         stats=empty_statistics(observer, dtype, dim),
         best=Best(

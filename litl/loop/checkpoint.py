@@ -5,6 +5,10 @@ latest learning statistics) and `counters`: numpy arrays of the run's shell, e.g
 episodes finished and of metrics lines written by then. A process killed mid-save leaves a
 temporary directory that orbax ignores; a complete checkpoint damaged later (a truncated file,
 lost metadata) is skipped on restore in favour of the previous one (two are kept).
+
+A checkpoint written before the replay buffer recorded actions (its buffer has no ``actions``)
+restores with zero actions and no transitions (`ReplayBufferWithoutActions.upgrade`): its
+snapshots still train the observer, and a latent dynamics model learns only from later rollouts.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import orbax.checkpoint as ocp
 
 from litl.errors import UserError
 from litl.loop.progress import say
+from litl.models.replay_buffer import ReplayBuffer, ReplayBufferWithoutActions
 
 
 class CheckpointError(UserError, RuntimeError):
@@ -61,12 +66,10 @@ class Checkpoints:
             "state": template_state,
             "counters": {k: np.asarray(v) for k, v in template_counters.items()},
         }
-        # Read into host arrays (np.empty: no memory touched), placed like the template below.
-        abstract = jax.tree.map(lambda leaf: np.empty(np.shape(leaf), leaf.dtype), template)
         failures = []
         for step in sorted(self.manager.all_steps(), reverse=True):
             try:
-                item = self.manager.restore(step, args=ocp.args.StandardRestore(abstract))
+                item = self._restore(step, template)
             except Exception as error:  # orbax/tensorstore raise many kinds for damaged files
                 reason = (
                     str(error).strip().splitlines()[0][:200] if str(error).strip() else type(error).__name__
@@ -88,6 +91,35 @@ class Checkpoints:
             f"no checkpoint in {self.directory} can be restored ({listing}). Start a new run "
             f"directory, or move {self.directory} away to start this run over."
         )
+
+    def _restore(self, step: int, template: dict) -> dict:
+        """Checkpoint `step` read into host arrays shaped as `template`'s leaves (np.empty: no
+        memory touched), a buffer without actions upgraded to the template's."""
+        state = template["state"]
+        without_actions = self._buffer_without_actions(step, state)
+        if without_actions:
+            template = {
+                **template,
+                "state": state.replace(buffer=ReplayBufferWithoutActions.like(state.buffer)),
+            }
+        abstract = jax.tree.map(lambda leaf: np.empty(np.shape(leaf), leaf.dtype), template)
+        item = self.manager.restore(step, args=ocp.args.StandardRestore(abstract))
+        if without_actions:
+            restored = item["state"]
+            item = {**item, "state": restored.replace(buffer=restored.buffer.upgrade(state.buffer))}
+        return item
+
+    def _buffer_without_actions(self, step: int, template_state) -> bool:
+        """Whether checkpoint `step` holds a replay buffer written before actions were recorded
+        (where `template_state` has a current `ReplayBuffer` as its ``buffer``). A checkpoint
+        whose metadata cannot be read is left to the plain restore, which reports it."""
+        if not isinstance(getattr(template_state, "buffer", None), ReplayBuffer):
+            return False
+        try:
+            buffer = self.manager.item_metadata(step).tree["state"]["buffer"]
+        except Exception:  # damaged metadata: the restore below fails and says why
+            return False
+        return isinstance(buffer, dict) and "fields" in buffer and "actions" not in buffer
 
     def close(self):
         self.manager.close()

@@ -128,13 +128,19 @@ class Optimization:
         return state, metrics
 
     def record(self, state: LoopState, trajectory):
-        """The rollout's snapshots into the replay buffer (or in its place, without one) and, on
+        """The rollout's snapshots (with its velocities and the actions that led to them) into the
+        replay buffer (or in its place, without one) and, on
         the simultaneous schedule, the observer's one step on them; returns (state, that step's
         reconstruction loss, NaN on the other schedules)."""
         snapshots = trajectory.snapshots
         keep = add if self.loop.replay_buffer else replace_with
         state = state.replace(
-            buffer=keep(state.buffer, snapshots, self.simulation.snapshot_velocities(trajectory))
+            buffer=keep(
+                state.buffer,
+                snapshots,
+                self.simulation.snapshot_velocities(trajectory),
+                self.simulation.snapshot_actions(trajectory),
+            )
         )
         recon = jnp.full((), jnp.nan, self.simulation.dtype)
         if self.schedule is LearningSchedule.simultaneous:

@@ -61,7 +61,12 @@ class Retraining:
         return state.replace(
             buffer=keep_if(
                 healthy,
-                add(state.buffer, trajectory.snapshots, simulation.snapshot_velocities(trajectory)),
+                add(
+                    state.buffer,
+                    trajectory.snapshots,
+                    simulation.snapshot_velocities(trajectory),
+                    simulation.snapshot_actions(trajectory),
+                ),
                 state.buffer,
             )
         )

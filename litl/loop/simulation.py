@@ -137,6 +137,17 @@ class Simulation:
         stride = self.stride
         return velocity[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
 
+    def snapshot_actions(self, trajectory):
+        """(n_snapshots, m) the mean actuation over the `stride` steps that produced each
+        snapshot from the previous one (from the initial state for the first): snapshot k is the
+        field after step (k + 1) * stride - 1, so steps k * stride ... (k + 1) * stride - 1 led to
+        it, the first of them acting on what the policy read of snapshot k - 1. The replay
+        buffer's `actions` (`litl.models.replay_buffer`)."""
+        n, stride = trajectory.snapshots.shape[0], self.stride
+        actuation = trajectory.actuation[: n * stride]
+        # Explicit sizes: -1 is ambiguous for a passive body's (steps, 0) actuation.
+        return actuation.reshape((n, stride, actuation.shape[-1])).mean(axis=1)
+
     def evaluate(self, state: LoopState):
         """The task loss of the current θ, φ, Θ (no gradient)."""
         total, _ = self.simulate(state.controller, state.design, state.observer)

@@ -2,7 +2,13 @@
 
 Beside each snapshot the buffer keeps the robot's velocity at that moment (the particles' mean
 velocity), which the learning phase uses to score its codes (the autoencoder's ``velocity_r2``) and
-never trains on.
+never trains on, and the actuation that led to it from the rollout's previous snapshot (the mean of
+the controller's outputs over the `stride` steps between them), with whether that previous snapshot
+is the one in the slot before (`follows`). Consecutive snapshots of one rollout and the action
+between them are then the transitions (z_t, a_t, z_{t+1}) a latent dynamics model learns from
+(`chronological`, `litl.latent`). Actuation enters the stress linearly (tau += F·A·Fᵀ, A = a·d⊗d),
+so over a few steps the mean is the held action with the same first-order effect; a controller that
+holds its action for the stride records exactly that action.
 
 A fixed-capacity ring buffer held as a pytree, so that adding snapshots is jittable and a batch of
 seeds is one `jax.vmap`. Its arrays keep a static shape; how many slots hold data is the dynamic
@@ -30,14 +36,27 @@ class ReplayBuffer:
       fields: (capacity, *grid_shape, d) stored snapshots; slots outside the valid ones hold stale
         or zero data and must be masked (`valid_mask`).
       velocities: (capacity, d) the robot's mean particle velocity at each snapshot.
+      actions: (capacity, m) the mean actuation over the steps that led to each snapshot from its
+        rollout's previous one (m actuators; m = 0 for a buffer that records none); zero where
+        none was recorded.
+      follows: (capacity,) bool, True where the snapshot's previous one in its rollout sits in
+        the slot before (ring order) and `actions` holds what led from it: a transition. False for
+        a rollout's first snapshot and for snapshots added without actions.
       count: () int32 number of valid entries, at most capacity.
       cursor: () int32 slot the next snapshot is written to (the oldest entry once full).
     """
 
     fields: jnp.ndarray
     velocities: jnp.ndarray
+    actions: jnp.ndarray
+    follows: jnp.ndarray
     count: jnp.ndarray
     cursor: jnp.ndarray
+
+    @property
+    def n_actions(self) -> int:
+        """m, the number of values of each recorded action (0: the buffer records none)."""
+        return self.actions.shape[-1]
 
     @property
     def capacity(self) -> int:
@@ -45,8 +64,11 @@ class ReplayBuffer:
         return self.fields.shape[0]
 
     @classmethod
-    def empty(cls, capacity: int, grid_shape, dim: int, dtype=jnp.float32) -> ReplayBuffer:
-        """An empty buffer of `capacity` snapshots of shape (*grid_shape, dim).
+    def empty(
+        cls, capacity: int, grid_shape, dim: int, dtype=jnp.float32, n_actions: int = 0
+    ) -> ReplayBuffer:
+        """An empty buffer of `capacity` snapshots of shape (*grid_shape, dim), each with an
+        action of `n_actions` values (the robot's actuators; 0: no actions recorded).
 
         For several seeds, build one per seed under `jax.vmap` or broadcast its leaves.
         """
@@ -57,9 +79,13 @@ class ReplayBuffer:
             raise ValueError(f"grid_shape must be 2 or 3 positive sizes, got {grid_shape!r}")
         if dim != len(grid_shape):
             raise ValueError(f"dim must equal the number of grid axes ({len(grid_shape)}), got {dim!r}")
+        if isinstance(n_actions, bool) or not isinstance(n_actions, int) or n_actions < 0:
+            raise ValueError(f"n_actions must be a non-negative int (the actuators), got {n_actions!r}")
         return cls(
             fields=jnp.zeros((capacity,) + grid_shape + (dim,), dtype),
             velocities=jnp.zeros((capacity, dim), dtype),
+            actions=jnp.zeros((capacity, n_actions), dtype),
+            follows=jnp.zeros((capacity,), bool),
             count=jnp.zeros((), jnp.int32),
             cursor=jnp.zeros((), jnp.int32),
         )
@@ -89,20 +115,23 @@ def occupied_mean(snapshots) -> jnp.ndarray:
     return jnp.sum(jnp.where(occupied, snapshots, 0), axis=axes) / count
 
 
-def add(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
-    """Append k snapshots, overwriting the oldest entries once the buffer is full.
+def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> ReplayBuffer:
+    """Append k snapshots of one rollout, overwriting the oldest entries once the buffer is full.
 
     The result is the same as writing the snapshots one at a time: if k exceeds the capacity only
     the newest `capacity` snapshots survive. Jittable; k is static.
 
     Args:
       buffer: the buffer to add to.
-      snapshots: (k, *grid_shape, d) velocity fields, oldest first.
+      snapshots: (k, *grid_shape, d) velocity fields, oldest first, consecutive in one rollout.
       velocities: (k, d) the robot's velocity at each snapshot; None: `occupied_mean` of the
         snapshots.
+      actions: (k, m) the actuation that led to each snapshot from the previous one (see
+        `ReplayBuffer.actions`); None: zeros, and these snapshots form no transitions.
 
     Returns:
-      The buffer with count = min(count + k, capacity) and cursor advanced by k (mod capacity).
+      The buffer with count = min(count + k, capacity) and cursor advanced by k (mod capacity);
+      `follows` is True for the added snapshots but the first (with actions).
     """
     snapshots = _check_snapshots(buffer, snapshots)
     capacity, k = buffer.capacity, snapshots.shape[0]
@@ -116,6 +145,17 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
             f"velocities must have shape ({k}, {buffer.velocities.shape[1]}), one "
             f"per snapshot, got {velocities.shape}"
         )
+    m = buffer.n_actions
+    if actions is None:
+        actions, follows = jnp.zeros((k, m), buffer.actions.dtype), jnp.zeros((k,), bool)
+    else:
+        actions = jnp.asarray(actions, buffer.actions.dtype)
+        if actions.shape != (k, m):
+            raise ValueError(
+                f"actions must have shape ({k}, {m}), one per snapshot with this buffer's "
+                f"n_actions={m} values, got {actions.shape}"
+            )
+        follows = jnp.arange(k) > 0
     # Earlier snapshots of an oversize add would be overwritten by later ones; skip writing them so
     # that the scatter has unique slots (duplicate slots in a scatter are written in no set order).
     skipped = max(k - capacity, 0)
@@ -124,34 +164,59 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
     return buffer.replace(
         fields=buffer.fields.at[slots].set(kept, unique_indices=True),
         velocities=buffer.velocities.at[slots].set(velocities[skipped:], unique_indices=True),
+        actions=buffer.actions.at[slots].set(actions[skipped:], unique_indices=True),
+        follows=buffer.follows.at[slots].set(follows[skipped:], unique_indices=True),
         count=jnp.minimum(buffer.count + k, capacity).astype(jnp.int32),
         cursor=((buffer.cursor + k) % capacity).astype(jnp.int32),
     )
 
 
 def clear(buffer: ReplayBuffer) -> ReplayBuffer:
-    """The same buffer emptied: zero fields, velocities, count and cursor."""
+    """The same buffer emptied: zero fields, velocities, actions, count and cursor."""
     return buffer.replace(
         fields=jnp.zeros_like(buffer.fields),
         velocities=jnp.zeros_like(buffer.velocities),
+        actions=jnp.zeros_like(buffer.actions),
+        follows=jnp.zeros_like(buffer.follows),
         count=jnp.zeros_like(buffer.count),
         cursor=jnp.zeros_like(buffer.cursor),
     )
 
 
-def replace_with(buffer: ReplayBuffer, snapshots, velocities=None) -> ReplayBuffer:
-    """Keep only `snapshots` (k, *grid_shape, d) (and their `velocities`, see `add`): the "no
-    replay buffer" ablation.
+def replace_with(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> ReplayBuffer:
+    """Keep only `snapshots` (k, *grid_shape, d) (and their `velocities` and `actions`, see
+    `add`): the "no replay buffer" ablation.
 
     Each learning phase then sees only the latest rollout (its newest `capacity` snapshots).
     """
-    return add(clear(buffer), snapshots, velocities)
+    return add(clear(buffer), snapshots, velocities, actions)
 
 
 def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:
     """(capacity,) bool, True where a slot holds a stored snapshot."""
     # Slots fill from 0 upwards and never empty again, so the valid ones are a prefix.
     return jnp.arange(buffer.capacity) < buffer.count
+
+
+def chronological(buffer: ReplayBuffer) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """The slots in the order their snapshots were stored, and which of them are transitions.
+
+    Jittable (static shapes).
+
+    Returns:
+      order: (capacity,) int32 slots, oldest snapshot first; the first `count` are valid.
+      links: (capacity,) bool, links[t] True where the snapshot in slot order[t] follows the one
+        in slot order[t - 1] in its rollout under the action `buffer.actions[order[t]]`: the
+        transition (fields[order[t-1]], actions[order[t]], fields[order[t]]). False at t = 0, at
+        a rollout's first snapshot, past `count`, and where no action was recorded.
+    """
+    capacity = buffer.capacity
+    full = buffer.count >= capacity
+    start = jnp.where(full, buffer.cursor, 0)  # once full, the cursor's slot holds the oldest
+    order = ((start + jnp.arange(capacity)) % capacity).astype(jnp.int32)
+    position = jnp.arange(capacity)
+    links = buffer.follows[order] & (position > 0) & (position < buffer.count)
+    return order, links
 
 
 def valid_fields(buffer: ReplayBuffer) -> jax.Array:
@@ -167,3 +232,34 @@ def newest(buffer: ReplayBuffer, k: int):
     count = int(buffer.count)
     slots = (int(buffer.cursor) - 1 - np.arange(min(count, k))[::-1]) % max(count, 1)
     return np.asarray(buffer.fields)[slots]
+
+
+@struct.dataclass
+class ReplayBufferWithoutActions:
+    """The buffer as checkpoints written before actions were recorded hold it (fields,
+    velocities, count, cursor; see `ReplayBuffer`): a template to restore such a checkpoint into,
+    and `upgrade` to the current buffer."""
+
+    fields: Any
+    velocities: Any
+    count: Any
+    cursor: Any
+
+    @classmethod
+    def like(cls, buffer: ReplayBuffer) -> ReplayBufferWithoutActions:
+        """The same leaves as `buffer` (any batch axes) without its actions."""
+        return cls(
+            fields=buffer.fields, velocities=buffer.velocities, count=buffer.count, cursor=buffer.cursor
+        )
+
+    def upgrade(self, template: ReplayBuffer) -> ReplayBuffer:
+        """The current buffer: these snapshots, with zero actions shaped as `template`'s and no
+        transitions (`follows` False): what led to them was not recorded."""
+        return ReplayBuffer(
+            fields=self.fields,
+            velocities=self.velocities,
+            actions=jnp.zeros(jnp.shape(template.actions), template.actions.dtype),
+            follows=jnp.zeros(jnp.shape(template.follows), bool),
+            count=self.count,
+            cursor=self.cursor,
+        )

@@ -146,3 +146,29 @@ def test_a_restored_state_is_placed_as_the_fresh_one_and_reuses_its_program(tmp_
     program(fresh)
     program(restored)
     assert program._cache_size() == 1  # one program for both
+
+
+def test_a_checkpoint_from_before_actions_were_recorded_restores_without_transitions(tmp_path):
+    from flax import struct
+
+    from litl.models import replay_buffer
+    from litl.models.replay_buffer import ReplayBuffer, ReplayBufferWithoutActions
+
+    @struct.dataclass
+    class Holder:  # a state with a buffer, as `LoopState` has
+        buffer: object
+        weight: object
+
+    fresh = Holder(buffer=ReplayBuffer.empty(4, (3, 3), 2, n_actions=2), weight=jnp.zeros(2))
+    written = replay_buffer.add(fresh.buffer, jnp.ones((3, 3, 3, 2)), None, jnp.ones((3, 2)))
+    old = Holder(buffer=ReplayBufferWithoutActions.like(written), weight=jnp.ones(2))
+    checkpoints = Checkpoints(tmp_path)
+    checkpoints.save(1, old, {"episodes": np.asarray(1)})
+    restored, counters = checkpoints.restore(fresh, {"episodes": np.asarray(0)})
+    checkpoints.close()
+    assert int(counters["episodes"]) == 1 and not (tmp_path / "damaged-1").exists()
+    assert isinstance(restored.buffer, ReplayBuffer) and int(restored.buffer.count) == 3
+    np.testing.assert_array_equal(restored.buffer.fields, written.fields)
+    np.testing.assert_array_equal(restored.weight, np.ones(2))
+    assert restored.buffer.actions.shape == (4, 2) and not np.any(restored.buffer.actions)
+    assert not np.any(replay_buffer.chronological(restored.buffer)[1])

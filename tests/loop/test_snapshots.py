@@ -1,4 +1,4 @@
-"""What the loop stores: the observed grid field and the robot's velocity beside each snapshot."""
+"""What the loop stores: the observed grid field, the robot's velocity and the actions by each snapshot."""
 
 import jax
 import jax.numpy as jnp
@@ -33,6 +33,15 @@ def test_buffer_holds_the_configured_field_and_the_particles_mean_velocity():
     np.testing.assert_allclose(
         after.buffer.velocities[:count], trajectory.observations[9::10], rtol=1e-3, atol=5e-5
     )  # float32 differences of centroids
+    # Beside snapshot k, the mean actuation of steps 10k ... 10k + 9, which led to it.
+    assert after.buffer.actions.shape == (12, robot.n_actuators)
+    np.testing.assert_allclose(
+        after.buffer.actions[:count],
+        trajectory.actuation.reshape(4, 10, -1).mean(axis=1),
+        rtol=1e-5,
+        atol=1e-6,
+    )
+    np.testing.assert_array_equal(after.buffer.follows[:count], [False, True, True, True])
     # Mass-weighted: the light boundary nodes read less than momentum / mass would.
     velocity = make_algorithm(robot, tiny_config(observer={"vae": {"field": "velocity"}}).algorithm)
     plain, _ = jax.jit(velocity.bootstrap)(velocity.init(0))

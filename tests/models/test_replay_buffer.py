@@ -113,3 +113,44 @@ def test_the_loops_old_import_path_gives_the_same_buffer():
     from litl.loop import replay_buffer as old_path
 
     assert old_path.ReplayBuffer is ReplayBuffer and old_path.add is replay_buffer.add
+
+
+def test_actions_are_kept_beside_their_snapshots_and_link_one_rollouts_snapshots():
+    buffer = ReplayBuffer.empty(5, GRID, 2, n_actions=3)
+    assert buffer.actions.shape == (5, 3) and buffer.n_actions == 3 and not np.any(buffer.follows)
+    actions = jnp.arange(9.0).reshape(3, 3)
+    buffer = jax.jit(replay_buffer.add)(buffer, snapshots(0, 3), None, actions)
+    np.testing.assert_array_equal(buffer.actions[:3], actions)
+    np.testing.assert_array_equal(buffer.follows, [False, True, True, False, False])
+    order, links = jax.jit(replay_buffer.chronological)(buffer)
+    np.testing.assert_array_equal(order, [0, 1, 2, 3, 4])
+    np.testing.assert_array_equal(links, [False, True, True, False, False])
+    # A second rollout wraps around: slots 3, 4, 0, 1 hold ids 3..6, slot 2 the oldest (id 2).
+    buffer = replay_buffer.add(buffer, snapshots(3, 4), None, 10 + jnp.arange(12.0).reshape(4, 3))
+    order, links = replay_buffer.chronological(buffer)
+    np.testing.assert_array_equal(order, [2, 3, 4, 0, 1])
+    ids = np.asarray(buffer.fields)[np.asarray(order), 0, 0, 0]
+    np.testing.assert_array_equal(ids, [2, 3, 4, 5, 6])
+    # id 2 is the oldest (its predecessor was overwritten); id 3 starts the second rollout.
+    np.testing.assert_array_equal(links, [False, False, True, True, True])
+    np.testing.assert_array_equal(buffer.actions[np.asarray(order)][2], [13.0, 14.0, 15.0])
+
+
+def test_snapshots_added_without_actions_form_no_transitions():
+    buffer = replay_buffer.add(ReplayBuffer.empty(4, GRID, 2, n_actions=2), snapshots(0, 3))
+    assert not np.any(buffer.actions) and not np.any(replay_buffer.chronological(buffer)[1])
+    full = replay_buffer.add(
+        ReplayBuffer.empty(3, GRID, 2, n_actions=1), snapshots(0, 7), None, jnp.ones((7, 1))
+    )
+    np.testing.assert_array_equal(replay_buffer.chronological(full)[1], [False, True, True])
+    cleared = replay_buffer.clear(full)
+    assert not np.any(cleared.follows) and not np.any(cleared.actions)
+
+
+def test_bad_actions():
+    buffer = ReplayBuffer.empty(4, GRID, 2, n_actions=2)
+    with pytest.raises(ValueError, match=r"actions must have shape \(3, 2\).*n_actions=2"):
+        replay_buffer.add(buffer, snapshots(0, 3), None, jnp.zeros((3, 1)))
+    for n_actions in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="n_actions must be a non-negative int"):
+            ReplayBuffer.empty(4, GRID, 2, n_actions=n_actions)

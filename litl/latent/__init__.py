@@ -1,0 +1,42 @@
+"""Control in the observer's latent space (issue 78, first part): latent dynamics models learned
+from the replay buffer's transitions, their multi-step prediction error, and finite-horizon LQR.
+
+* `litl.latent.dynamics`: `Transitions`; `fit_linear` (z' = A z + B a + c, ridge least squares
+  in closed form) and `fit_mlp` (z' = z + g(z, a), optax with early stopping), each with its
+  frozen settings (`LinearSettings`, `MLPSettings`).
+* `litl.latent.prediction`: `prediction_error`, h-step errors beside the constant-latent baseline.
+* `litl.latent.lqr`: `LQRProblem`, `solve` (backward Riccati recursion), `rollout`.
+
+No controller is registered from here yet (docs/guide/latent-control.md says what is missing).
+"""
+
+from litl.latent.dynamics import (
+    LinearDynamics,
+    LinearSettings,
+    MLPDynamics,
+    MLPFit,
+    MLPSettings,
+    Transitions,
+    fit_linear,
+    fit_mlp,
+)
+from litl.latent.lqr import LQRProblem, LQRSolution, rollout, solve, total_cost
+from litl.latent.prediction import PredictionError, prediction_error
+
+__all__ = [
+    "LQRProblem",
+    "LQRSolution",
+    "LinearDynamics",
+    "LinearSettings",
+    "MLPDynamics",
+    "MLPFit",
+    "MLPSettings",
+    "PredictionError",
+    "Transitions",
+    "fit_linear",
+    "fit_mlp",
+    "prediction_error",
+    "rollout",
+    "solve",
+    "total_cost",
+]
