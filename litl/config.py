@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from litl.settings import Settings, SettingsError, from_dict, json_safe, number
+from litl.settings.dynamics import DynamicsConfig
 from litl.settings.parts import ControllerConfig, DesignConfig, ObserverConfig, OptimizerConfig, WorldConfig
 from litl.settings.registry import registry
 from litl.settings.trees import flatten, unflatten
@@ -355,6 +356,8 @@ class LoopConfig(Settings):
       codesign: optimize the design φ with the controller; False: control only.
       safeguards: litl's stabilizers of the optimization (`SafeguardsConfig`).
       learning: the learning phase (`LearningConfig`).
+      dynamics: a latent dynamics model measured at every learning phase (`DynamicsConfig`;
+        off by default).
       learning_seeds_at_once: None (the default): every seed's learning phase vmapped, as the
         optimization; N: N seeds' phases vmapped together, the groups one after another. A
         vmapped phase runs until its slowest seed stops; 1 stops each at its own epoch, which on
@@ -376,6 +379,7 @@ class LoopConfig(Settings):
     codesign: bool = True
     safeguards: SafeguardsConfig = field(default_factory=SafeguardsConfig)
     learning: LearningConfig = field(default_factory=LearningConfig)
+    dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     learning_seeds_at_once: int | None = None
 
     def check(self) -> None:

@@ -19,7 +19,6 @@ only where the data are concrete (outside jit).
 
 from __future__ import annotations
 
-import dataclasses
 from typing import TYPE_CHECKING, Any, Self
 
 import jax
@@ -27,7 +26,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from litl.settings import Settings
+from litl.settings.dynamics import LinearSettings, MLPSettings
 
 
 @struct.dataclass
@@ -119,23 +118,6 @@ def check_sequence(latents, actions, links) -> None:
 # Linear: z' = A z + B a + c
 
 
-@dataclasses.dataclass(frozen=True)
-class LinearSettings(Settings):
-    """The linear model's fit.
-
-    Attributes:
-      ridge: λ >= 0 of the ridge objective (1/n) Σ ||z' - A z - B a - c||² + λ (||A||² + ||B||²)
-        (Frobenius norms; the offset c is not penalized). 0: plain least squares (the data must
-        then determine A, B, c: at least r + m + 1 transitions that span them).
-    """
-
-    KEY = "latent.linear"
-    ridge: float = 1e-6
-
-    def check(self) -> None:
-        self._positive_numbers("ridge", zero=True)
-
-
 @struct.dataclass
 class LinearDynamics:
     """z' = A z + B a + c.
@@ -155,7 +137,7 @@ class LinearDynamics:
         return self.A @ latent + self.B @ action + self.c
 
 
-def fit_linear(data: Transitions, settings: LinearSettings = LinearSettings()) -> LinearDynamics:
+def fit_linear(data: Transitions, settings: LinearSettings | None = None) -> LinearDynamics:
     """A, B, c minimizing `LinearSettings.ridge`'s objective over the masked transitions.
 
     Closed form: the normal equations (XᵀX / n + λ D) Θ = XᵀY / n with X = [z, a, 1] (n rows),
@@ -163,6 +145,7 @@ def fit_linear(data: Transitions, settings: LinearSettings = LinearSettings()) -
     data's dtype (the normal equations square the condition number: fit in float64 where the
     data are ill-conditioned).
     """
+    settings = settings or LinearSettings()
     data.check()
     r, m = data.latent_size, data.action_size
     weight = data.mask.astype(data.latents.dtype)[:, None]
@@ -178,41 +161,6 @@ def fit_linear(data: Transitions, settings: LinearSettings = LinearSettings()) -
 
 # ---------------------------------------------------------------------------------------------
 # MLP residual: z' = z + g(z, a)
-
-
-@dataclasses.dataclass(frozen=True)
-class MLPSettings(Settings):
-    """The MLP residual model and its training.
-
-    Attributes:
-      widths: hidden layer widths of g (tanh between layers, a linear output).
-      learning_rate: Adam's step size.
-      max_epochs: full-batch Adam steps at most (one per epoch).
-      patience: stop after this many epochs without a better validation loss (the best
-        parameters are kept).
-      validation_fraction: share of the transitions held out for validation (at least one, and
-        at least one kept for training).
-      weight_decay: AdamW's decoupled weight decay (0: plain Adam).
-    """
-
-    KEY = "latent.mlp"
-    widths: tuple[int, ...] = (64, 64)
-    learning_rate: float = 3e-3
-    max_epochs: int = 2000
-    patience: int = 100
-    validation_fraction: float = 0.2
-    weight_decay: float = 0.0
-
-    def check(self) -> None:
-        if not self.widths or any(
-            isinstance(w, bool) or not isinstance(w, int) or w < 1 for w in self.widths
-        ):
-            self._invalid("widths", "must be one or more positive integers")
-        self._positive_numbers("learning_rate")
-        self._positive_numbers("weight_decay", zero=True)
-        self._positive_ints("max_epochs", "patience")
-        if not (0 < self.validation_fraction < 1):
-            self._invalid("validation_fraction", "must be in (0, 1)")
 
 
 @struct.dataclass
@@ -303,7 +251,7 @@ def _mse(model: MLPDynamics, data: Transitions, mask):
     return jnp.sum(squared) / jnp.maximum(jnp.sum(mask) * data.latent_size, 1)
 
 
-def fit_mlp(key, data: Transitions, settings: MLPSettings = MLPSettings()) -> tuple[MLPDynamics, MLPFit]:
+def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tuple[MLPDynamics, MLPFit]:
     """Train the residual MLP on a random train/validation split of the masked transitions.
 
     Full-batch Adam (AdamW with `weight_decay`), one step per epoch; the parameters of the epoch
@@ -315,11 +263,12 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings = MLPSettings()) -> tu
     Args:
       key: PRNG key (split and initialization).
       data: the transitions (at least 2: one to train on, one to validate with).
-      settings: the model and its training.
+      settings: the model and its training (None: `MLPSettings()`).
 
     Returns:
       (the best model, `MLPFit`).
     """
+    settings = settings or MLPSettings()
     data.check(minimum=2)
     dtype = data.latents.dtype
     split_key, init_key = jax.random.split(key)

@@ -81,26 +81,38 @@ def prediction_error(
     """
     latents, actions, links = jnp.asarray(latents), jnp.asarray(actions), jnp.asarray(links, bool)
     check_sequence(latents, actions, links)
-    steps = latents.shape[0]
-    horizons = check_horizons(horizons, steps)
-    batched = jax.vmap(step)
+    horizons = check_horizons(horizons, latents.shape[0])
     model, constant, starts = [], [], []
     for h in horizons:
-        count = steps - h
-        first = latents[:count]
-        # Start t is usable when links[t + 1 ... t + h] all hold: h steps in one rollout.
-        window = jnp.stack([links[j : j + count] for j in range(1, h + 1)])
-        usable = jnp.all(window, axis=0)
-        ahead = jnp.stack([actions[j : j + count] for j in range(1, h + 1)])  # (h, count, m)
-        predicted, _ = jax.lax.scan(lambda z, a: (batched(z, a), None), first, ahead)
-        target = latents[h : h + count]
+        predicted, usable = predict(step, latents, actions, links, h)
+        target = latents[h:]
         n = jnp.sum(usable)
         model.append(_rms(predicted, target, usable, n))
-        constant.append(_rms(first, target, usable, n))
+        constant.append(_rms(latents[:-h], target, usable, n))
         starts.append(n.astype(jnp.int32))
     return PredictionError(
         horizons=horizons, model=jnp.stack(model), constant=jnp.stack(constant), starts=jnp.stack(starts)
     )
+
+
+def predict(step: Callable, latents, actions, links, h: int):
+    """The h-step predictions from every start, and which starts are usable. Jittable (h static).
+
+    Args: as `prediction_error`'s, with one horizon h in [1, T - 1].
+
+    Returns:
+      predicted: (T - h, r) ẑ_{t+h} from z_t, t = 0 ... T - h - 1, under the recorded actions
+        (compare with latents[h:]).
+      usable: (T - h,) bool, True where links[t + 1 ... t + h] all hold: the h steps lie in one
+        rollout (the other rows are predictions across rollouts, meaningless).
+    """
+    count = latents.shape[0] - h
+    window = jnp.stack([links[j : j + count] for j in range(1, h + 1)])
+    usable = jnp.all(window, axis=0)
+    ahead = jnp.stack([actions[j : j + count] for j in range(1, h + 1)])  # (h, count, m)
+    batched = jax.vmap(step)
+    predicted, _ = jax.lax.scan(lambda z, a: (batched(z, a), None), latents[:count], ahead)
+    return predicted, usable
 
 
 def _rms(guess, target, usable, count):

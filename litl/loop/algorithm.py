@@ -45,6 +45,7 @@ import jax.numpy as jnp
 from litl import controllers, observers
 from litl.config import AlgorithmSettings, SettingsError
 from litl.controllers import ControllerContext
+from litl.latent import in_loop
 from litl.loop.optimization import Optimization
 from litl.loop.retraining import Retraining
 from litl.loop.schedule import LearningSchedule
@@ -63,6 +64,7 @@ from litl.loop.state import (  # noqa: F401  (re-exported: the loop's state and 
 from litl.models.replay_buffer import ReplayBuffer
 from litl.observers import Observer, ObserverContext
 from litl.robots.robot import Robot
+from litl.settings.dynamics import DynamicsConfig
 from litl.sim.memory import CheckpointPlan
 
 
@@ -124,13 +126,15 @@ class Algorithm:
         return self.schedule is LearningSchedule.alternating
 
 
-def empty_statistics(observer: Observer, dtype, dim: int) -> dict:
+def empty_statistics(observer: Observer, dtype, dim: int, dynamics: DynamicsConfig | None = None) -> dict:
     """A seed's statistics before its first learning phase: the observer's (none for one that
-    does not learn), its follower's (`BodyFollower`) and the loop's own ``update_accepted``."""
+    does not learn), its follower's (`BodyFollower`), the latent dynamics model's where
+    `dynamics` is enabled (`litl.latent.in_loop`) and the loop's own ``update_accepted``."""
     learner, follower = observer.learner, observer.follower
     return {
         **(learner.empty_statistics(dtype, dim) if learner is not None else {}),
         **(follower.empty_statistics(dtype) if follower is not None else {}),
+        **(in_loop.empty_statistics(dynamics, dtype) if dynamics is not None and dynamics.enabled else {}),
         "update_accepted": True,
     }
 
@@ -161,6 +165,7 @@ def make_algorithm(robot: Robot, settings: AlgorithmSettings, on_epoch=None) -> 
     schedule = LearningSchedule.of(settings.loop.schedule, learns=learns)
     stride = min(settings.loop.snapshot_stride, steps)
     _check_learning_data(settings.loop, observer, schedule, steps, stride)
+    _check_dynamics(settings, observer, schedule)
     simultaneous = schedule is LearningSchedule.simultaneous
     if simultaneous and observer.learner is not None and observer.learner.step is None:
         raise SettingsError(
@@ -228,6 +233,28 @@ def _check_learning_data(loop, observer: Observer, schedule: LearningSchedule, s
         )
 
 
+def _check_dynamics(settings: AlgorithmSettings, observer: Observer, schedule: LearningSchedule) -> None:
+    """`loop.dynamics.enabled` needs a latent space to learn in, and learning phases to learn at."""
+    dynamics = settings.loop.dynamics
+    if not dynamics.enabled:
+        return
+    if observer.learner is None or observer.learner.latent is None:
+        latent = [name for name in ("vae", "ae", "pca") if name in observers.names()]
+        raise SettingsError(
+            f"loop.dynamics.enabled=true: observer {settings.observer.kind!r} has no latent space "
+            f"that encodes and decodes the grid field; choose observer= one of {latent}, or "
+            f"loop.dynamics.enabled=false",
+            "loop.dynamics.enabled",
+        )
+    if schedule is not LearningSchedule.alternating:
+        raise SettingsError(
+            f"loop.dynamics.enabled=true is measured at the learning phases after every episode; "
+            f"loop.schedule={settings.loop.schedule.value} has none (use loop.schedule=alternating)",
+            "loop.dynamics.enabled",
+        )
+    in_loop.check_horizons(dynamics, settings.loop.buffer_capacity)
+
+
 def _checkpoint_plan(simulation: Simulation, optimization: Optimization) -> CheckpointPlan:
     """The memory plan of `simulation.simulate`'s rollout, from the shapes of a seed's state."""
     state = jax.eval_shape(
@@ -278,7 +305,7 @@ def _initial_state(
             n_actions=simulation.robot.n_actuators,
         ),
         key=key_data,
-        stats=empty_statistics(observer, dtype, dim),
+        stats=empty_statistics(observer, dtype, dim, optimization.loop.dynamics),
         best=Best(
             task_loss=jnp.full((), jnp.inf, dtype),
             step=jnp.full((), -1, jnp.int32),

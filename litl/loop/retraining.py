@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import optax
 
 from litl.config import LoopConfig
+from litl.latent import in_loop
 from litl.loop.simulation import Simulation
 from litl.loop.state import LoopState, keep_if, skip_reason, split_key
 from litl.models.replay_buffer import add
@@ -83,7 +84,20 @@ class Retraining:
         state, key = split_key(state)
         trained, stats = self.learner.phase(state.observer, state.buffer, key)
         adopted, stats = self.adopt(state, trained, stats, first)
+        adopted, stats = self.measure_dynamics(adopted, stats)
         return self.with_statistics(adopted, stats, followed)
+
+    def measure_dynamics(self, state: LoopState, stats):
+        """(state, stats with the latent dynamics model's statistics) under the adopted Θ, where
+        `loop.dynamics` is enabled (`litl.latent.in_loop`); else both as they are (and the
+        seed's key unused, so runs without it keep their random streams)."""
+        dynamics = self.loop.dynamics
+        if not dynamics.enabled:
+            return state, stats
+        state, key = split_key(state)
+        measured = in_loop.measure(self.learner.latent, state.observer, state.buffer, key, dynamics)
+        stats = {**dict(stats), **measured}
+        return state.replace(stats=stats), stats
 
     def follow(self, state: LoopState):
         """The observer refitted to the body's current design, where it follows the body
@@ -120,6 +134,7 @@ class Retraining:
 
         def adopt(state, phase, phase_stats, refit):
             adopted, adopted_stats = self.adopt(state, phase, phase_stats, first)
+            adopted, adopted_stats = self.measure_dynamics(adopted, adopted_stats)
             return self.with_statistics(adopted, adopted_stats, refit)
 
         return jax.vmap(adopt)(states, trained, stats, followed)

@@ -405,6 +405,10 @@ def _statistics_records(learner, stats, s: int) -> tuple[dict, dict]:
     (`Learner.records`; every value, for an observer that does not learn)."""
     one = {name: value[s] for name, value in stats.items()}
     phase, iteration = (learner.records if learner is not None else every_value)(one)
+    # The latent dynamics model's (loop.dynamics): in the phase's record only, whatever the learner keeps.
+    dynamics = {name: value for name, value in one.items() if name.startswith("dynamics/")}
+    phase = {**phase, **dynamics}
+    iteration = {name: value for name, value in iteration.items() if name not in dynamics}
     return (
         {name: json_value(value) for name, value in phase.items()},
         {name: json_value(value) for name, value in iteration.items()},

@@ -24,7 +24,7 @@ from litl.models import vae
 from litl.models.replay_buffer import newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import LearningStats, make_learning_phase
-from litl.observers.interface import GridField, Learner, Observer, ObserverContext
+from litl.observers.interface import GridField, LatentCodec, Learner, Observer, ObserverContext
 from litl.settings import Settings
 
 SNAPSHOTS = 6  # the newest snapshots the pictures show
@@ -96,6 +96,10 @@ def autoencoder(
         records=records,
         reconstruct=lambda params, fields: reconstruct(model, params, fields),
         model=model,
+        latent=LatentCodec(
+            encode=lambda params, fields: encode(model, params, fields),
+            decode=lambda params, latents: decode(model, params, latents),
+        ),
     )
     return Observer(
         n_features=settings.latent_dim,
@@ -151,11 +155,20 @@ def records(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
     return phase, {**repeated, "learning_epochs": statistics["epochs_used"]}
 
 
+def encode(model: vae.ConvAutoencoder, params: vae.AutoencoderParams, fields):
+    """(B, r) the encoder means of raw fields (B, *window, d): the features the controller reads."""
+    return model.apply(params.network, fields / params.scale, method="encode")[0]
+
+
+def decode(model: vae.ConvAutoencoder, params: vae.AutoencoderParams, latents):
+    """(B, *window, d) latents (B, r) decoded, in the fields' units."""
+    return model.apply(params.network, latents, method="decode") * params.scale
+
+
 def reconstruct(model: vae.ConvAutoencoder, params: vae.AutoencoderParams, fields):
     """(B, *window, d) the reconstructions of raw fields (encoder means decoded, in the fields'
     units)."""
-    code = model.apply(params.network, fields / params.scale, method="encode")[0]
-    return model.apply(params.network, code, method="decode") * params.scale
+    return decode(model, params, encode(model, params, fields))
 
 
 def pictures(robot, algorithm, state, run_dir: pathlib.Path, stride: int) -> list[pathlib.Path]:

@@ -65,6 +65,22 @@ def every_value(statistics: Mapping[str, Any]) -> tuple[dict, dict]:
 
 
 @dataclasses.dataclass(frozen=True)
+class LatentCodec:
+    """An observer's latent space, between its snapshots and its features (`Learner.latent`).
+
+    Attributes:
+      encode: ``encode(params, fields) -> (B, r)``: snapshots as the replay buffer stores them
+        (B, *window, d) to the latents the controller reads of them (`Observer.features` of the
+        same field).
+      decode: ``decode(params, latents) -> (B, *window, d)``: latents back to fields, in the
+        snapshots' units (decode(encode(x)) is the observer's reconstruction of x).
+    """
+
+    encode: Callable[[Any, Any], Any]
+    decode: Callable[[Any, Any], Any]
+
+
+@dataclasses.dataclass(frozen=True)
 class Learner:
     """How a learned observer learns from grid velocity snapshots.
 
@@ -86,6 +102,8 @@ class Learner:
       reconstruct: ``reconstruct(params, fields) -> fields`` (B, *window, d) for the live log's
         snapshot strip; None if it has none.
       model: the network, if any (for pictures of the representation).
+      latent: its latent space (`LatentCodec`): what a latent dynamics model is learned in
+        (`loop.dynamics`); None: its features are not a latent space that decodes.
     """
 
     window: Window
@@ -96,6 +114,7 @@ class Learner:
     records: Callable[[Mapping[str, Any]], tuple[dict, dict]] = every_value
     reconstruct: Callable[[Any, Any], Any] | None = None
     model: Any = None
+    latent: LatentCodec | None = None
 
     def reporting_epochs(self, on_epoch) -> Learner:
         """This learner with a phase that calls `on_epoch(epoch, validation_loss)` after every

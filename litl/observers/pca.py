@@ -27,7 +27,7 @@ from flax import struct
 from litl.models.replay_buffer import ReplayBuffer, newest
 from litl.models.window import Window
 from litl.observers.autoencoder_learning import random_split
-from litl.observers.interface import GridField, Learner, Observer, ObserverContext
+from litl.observers.interface import GridField, LatentCodec, Learner, Observer, ObserverContext
 from litl.settings import Settings, SettingsError
 
 SNAPSHOTS = 6  # the newest snapshots its picture reconstructs
@@ -106,6 +106,12 @@ def pca(robot, settings: PCASettings, context: ObserverContext) -> Observer:
         optimizer_init=lambda params: (),
         empty_statistics=empty_statistics,
         reconstruct=reconstruct,
+        latent=LatentCodec(
+            encode=encode,
+            decode=lambda params, latents: decode(params, latents).reshape(
+                latents.shape[0], *window.shape, sim_config.dim
+            ),
+        ),
     )
     return Observer(
         n_features=rank,
@@ -121,6 +127,17 @@ def project(params: PCAParams, flat):
     """(r,) the features of a flattened field (D,): coordinates along the components over their
     standard deviations."""
     return (flat - params.mean) @ params.components / params.std
+
+
+def encode(params: PCAParams, fields):
+    """(B, r) the features of fields (B, *window, d)."""
+    return jax.vmap(lambda flat: project(params, flat))(fields.reshape(fields.shape[0], -1))
+
+
+def decode(params: PCAParams, latents):
+    """Fields (B, D) from features (B, r): back along the components, in the fields' units; the
+    caller reshapes them to (B, *window, d) (`LatentCodec.decode` does)."""
+    return params.mean + (latents * params.std) @ params.components.T
 
 
 def reconstruct(params: PCAParams, fields):

@@ -158,11 +158,11 @@ def test_bad_data_and_settings_are_refused_by_name():
         Transitions.from_sequence(jnp.zeros((1, 2)), jnp.zeros((1, 1)), jnp.ones(1, bool))
     with pytest.raises(ValueError, match=r"links must have shape \(T=3,\)"):
         Transitions.from_sequence(jnp.zeros((3, 2)), jnp.zeros((3, 1)), jnp.ones(2, bool))
-    with pytest.raises(SettingsError, match=r"latent.linear.ridge=-1.0: must be a number >= 0"):
+    with pytest.raises(SettingsError, match=r"loop.dynamics.linear.ridge=-1.0: must be a number >= 0"):
         LinearSettings(ridge=-1.0)
-    with pytest.raises(SettingsError, match=r"latent.mlp.validation_fraction=1.0: must be in \(0, 1\)"):
+    with pytest.raises(SettingsError, match=r"loop.dynamics.mlp.validation_fraction=1.0: must be in \(0, 1"):
         MLPSettings(validation_fraction=1.0)
-    with pytest.raises(SettingsError, match="latent.mlp.widths"):
+    with pytest.raises(SettingsError, match="loop.dynamics.mlp.widths"):
         MLPSettings(widths=(8, 0))
-    with pytest.raises(SettingsError, match="latent.mlp.max_epochs"):
+    with pytest.raises(SettingsError, match="loop.dynamics.mlp.max_epochs"):
         MLPSettings(max_epochs=0)
