@@ -21,6 +21,8 @@ from litl.loop.simulation import Simulation
 from litl.loop.state import LoopState, keep_if, skip_reason, split_key
 from litl.models.replay_buffer import add
 
+DYNAMICS_STREAM = 78  # the latent dynamics measurement's key: folded from the seed's, never drawn
+
 
 def soft_update(target, online, alpha):
     """Target update Θ ← α·Θ′ + (1 − α)·Θ over every leaf (network weights and scale).
@@ -89,12 +91,13 @@ class Retraining:
 
     def measure_dynamics(self, state: LoopState, stats):
         """(state, stats with the latent dynamics model's statistics) under the adopted Θ, where
-        `loop.dynamics` is enabled (`litl.latent.in_loop`); else both as they are (and the
-        seed's key unused, so runs without it keep their random streams)."""
+        `loop.dynamics` is enabled (`litl.latent.in_loop`); else both as they are. Its key is
+        folded from the seed's without advancing it: measuring changes no random stream of
+        the run, so a run with it optimizes as the same run without it."""
         dynamics = self.loop.dynamics
         if not dynamics.enabled:
             return state, stats
-        state, key = split_key(state)
+        key = jax.random.fold_in(jax.random.wrap_key_data(state.key), DYNAMICS_STREAM)
         measured = in_loop.measure(self.learner.latent, state.observer, state.buffer, key, dynamics)
         stats = {**dict(stats), **measured}
         return state.replace(stats=stats), stats

@@ -165,3 +165,20 @@ def test_a_run_with_dynamics_records_it_at_every_phase_in_learning_jsonl_only(tm
         assert np.isfinite(record["dynamics/decoded/mlp/h=2"])
     metrics = (tmp_path / "metrics.jsonl").read_text().splitlines()
     assert not any(name.startswith("dynamics/") for name in json.loads(metrics[-1]))
+
+
+def test_measuring_the_dynamics_leaves_the_run_as_it_is(tmp_path):
+    plain, measured = tmp_path / "plain", tmp_path / "measured"
+    run(tiny_robot(), tiny_config(), plain, progress=False)
+    run(
+        tiny_robot(),
+        tiny_config(loop={"dynamics": {"enabled": True, "horizons": (1,)}}),
+        measured,
+        progress=False,
+    )
+    losses = [
+        [json.loads(line)["task_loss"] for line in (path / "metrics.jsonl").read_text().splitlines()]
+        for path in (plain, measured)
+    ]
+    # Another compiled program may round differently; the random streams are the same.
+    np.testing.assert_allclose(losses[0], losses[1], rtol=1e-4, atol=1e-6)
