@@ -1,0 +1,128 @@
+"""The plan's 10 tests (plan.md, written before the runs), from the runs' final.json files.
+
+    python docs/assets/2026-12-07/design-observers/judge.py > judge.txt   # from the repository root
+
+Reads the design-spaces page's records (docs/assets/2026-12-02/design-spaces/records: the bunny's
+VAE, the biped's VAE and kept-cluster k-means) and this folder's (records/: the bunny's k-means,
+the biped's reclustering k-means). Paired t where the seeds share an observer (a design against
+the modulus), Welch otherwise; two-sided; Holm over the 10.
+"""
+
+import json
+import pathlib
+
+import numpy as np
+from scipy import stats
+
+HERE = pathlib.Path(__file__).parent
+BEFORE = HERE.parents[1] / "2026-12-02" / "design-spaces" / "records"
+RECORDS = HERE / "records"
+
+
+def final(path: pathlib.Path) -> np.ndarray:
+    """Each seed's final task loss, in seed order."""
+    rows = sorted(json.loads((path / "final.json").read_text()), key=lambda r: r["seed"])
+    return np.array([r["task_loss"] for r in rows])
+
+
+def interval(values) -> str:
+    values = np.asarray(values)
+    mean, half = values.mean(), stats.t.ppf(0.95, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
+    return f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+
+
+def paired(a, b):
+    difference = a - b
+    return difference.mean(), interval(difference), stats.ttest_rel(a, b).pvalue
+
+
+def welch(a, b):
+    vx, vy = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+    se = np.sqrt(vx + vy)
+    dof = (vx + vy) ** 2 / (vx**2 / (len(a) - 1) + vy**2 / (len(b) - 1))
+    difference, half = a.mean() - b.mean(), stats.t.ppf(0.95, dof) * se
+    text = f"{difference:+.3f} [{difference - half:+.3f}, {difference + half:+.3f}]"
+    return difference, text, stats.ttest_ind(a, b, equal_var=False).pvalue
+
+
+def holm(p: list[float]) -> list[float]:
+    order = np.argsort(p)
+    adjusted, running = np.empty(len(p)), 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (len(p) - rank) * p[i]))
+        adjusted[i] = running
+    return adjusted.tolist()
+
+
+def main() -> None:
+    runs = {
+        "bunny vae": {c: BEFORE / "bunny" / "vae" / c for c in ("modulus", "actuators", "all")},
+        "bunny kmeans": {c: RECORDS / "bunny" / "kmeans" / c for c in ("modulus", "actuators", "all")},
+        "biped vae": {c: BEFORE / "vae" / c for c in ("modulus", "actuators", "all")},
+        "biped kmeans kept": {c: BEFORE / "kmeans" / c for c in ("modulus", "actuators", "all")},
+        "biped kmeans recluster": {
+            c: RECORDS / "biped" / "kmeans-recluster" / c for c in ("modulus", "actuators", "all")
+        },
+    }
+    losses = {
+        name: {c: final(p) for c, p in conditions.items() if (p / "final.json").exists()}
+        for name, conditions in runs.items()
+    }
+    for name, conditions in losses.items():
+        for condition, values in conditions.items():
+            print(
+                f"{name} {condition}: mean {interval(values)}; per seed "
+                + ", ".join(f"{v:.3f}" for v in values)
+            )
+    tests = []
+
+    def add(label, kind, a, b):
+        if a is None or b is None:
+            tests.append((label, None))
+            return
+        tests.append((label, (paired if kind == "paired" else welch)(a, b)))
+
+    get = lambda name, condition: losses[name].get(condition)
+    add(
+        "bunny, k-means: actuators vs modulus",
+        "paired",
+        get("bunny kmeans", "actuators"),
+        get("bunny kmeans", "modulus"),
+    )
+    add(
+        "bunny, k-means: all vs modulus", "paired", get("bunny kmeans", "all"), get("bunny kmeans", "modulus")
+    )
+    for c in ("modulus", "actuators", "all"):
+        add(f"bunny, {c}: VAE minus k-means", "welch", get("bunny vae", c), get("bunny kmeans", c))
+    for c in ("modulus", "actuators", "all"):
+        add(
+            f"biped, {c}: reclustering minus kept k-means",
+            "welch",
+            get("biped kmeans recluster", c),
+            get("biped kmeans kept", c),
+        )
+    for c in ("actuators", "all"):
+        add(
+            f"biped, {c}: VAE minus reclustering k-means",
+            "welch",
+            get("biped vae", c),
+            get("biped kmeans recluster", c),
+        )
+    measured = [t for t in tests if t[1] is not None]
+    adjusted = holm([t[1][2] for t in measured]) if len(measured) == len(tests) else None
+    print("\n| test | difference [90% CI] | two-sided p | Holm p (over 10) | verdict at 0.05 |")
+    print("|---|---|---|---|---|")
+    for i, (label, result) in enumerate(tests):
+        if result is None:
+            print(f"| {label} | not run | | | |")
+            continue
+        difference, text, p = result
+        holm_p = adjusted[i] if adjusted is not None else float("nan")
+        verdict = "not resolved" if not holm_p < 0.05 else ("lower" if difference < 0 else "higher")
+        print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
+    if adjusted is None:
+        print("\n(Holm needs all 10 tests: not adjusted yet)")
+
+
+if __name__ == "__main__":
+    main()
