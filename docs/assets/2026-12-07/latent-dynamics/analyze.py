@@ -21,6 +21,9 @@ import numpy as np
 
 from litl.report.stats import confidence_band
 
+COLORS = {"linear": "tab:blue", "mlp": "tab:orange", "constant": "tab:green", "floor": "tab:gray"}
+STYLES = ("-", "--", ":")  # one per observer, in the order given
+
 
 def phases(run_dir: pathlib.Path) -> dict[int, dict[int, dict]]:
     """{seed: {phase: record}} of a run's learning.jsonl."""
@@ -51,7 +54,8 @@ def main(out: pathlib.Path, runs: dict[str, pathlib.Path]) -> None:
     summary: dict = {}
     figure, axes = plt.subplots(1, 2, figsize=(10, 4))
     phase_figure, phase_axis = plt.subplots(figsize=(6, 4))
-    for name, run_dir in runs.items():
+    for index, (name, run_dir) in enumerate(runs.items()):
+        style = STYLES[index % len(STYLES)]
         by_seed = phases(run_dir)
         seeds = sorted(by_seed)
         last = max(by_seed[seeds[0]])
@@ -89,8 +93,9 @@ def main(out: pathlib.Path, runs: dict[str, pathlib.Path]) -> None:
                 means = [entry[f"{space}/{model}/h={h}"]["mean"] for h in horizons]
                 lows = [entry[f"{space}/{model}/h={h}"]["ci90"][0] for h in horizons]
                 highs = [entry[f"{space}/{model}/h={h}"]["ci90"][1] for h in horizons]
-                line = axis.plot(horizons, means, marker="o", label=f"{name} {model}")[0]
-                axis.fill_between(horizons, lows, highs, color=line.get_color(), alpha=0.2)
+                color = COLORS[model]
+                axis.plot(horizons, means, style, color=color, marker="o", label=f"{name} {model}")
+                axis.fill_between(horizons, lows, highs, color=color, alpha=0.12)
         # The h=5 (or the middle horizon's) error over the phases, MLP and constant.
         h = horizons[len(horizons) // 2]
         every = sorted(by_seed[seeds[0]])
@@ -98,8 +103,9 @@ def main(out: pathlib.Path, runs: dict[str, pathlib.Path]) -> None:
             key = f"dynamics/latent/{model}/h={h}"
             values = np.array([[value(by_seed[s].get(p, {}), key) for p in every] for s in seeds])
             mean, low, high = confidence_band(values)
-            line = phase_axis.plot(every, mean, marker=".", label=f"{name} {model}, h={h}")[0]
-            phase_axis.fill_between(every, low, high, color=line.get_color(), alpha=0.2)
+            color = COLORS[model]
+            phase_axis.plot(every, mean, style, color=color, marker=".", label=f"{name} {model}, h={h}")
+            phase_axis.fill_between(every, low, high, color=color, alpha=0.12)
     for axis, space in zip(axes, ("latent", "decoded"), strict=True):
         axis.set_xlabel("horizon h (snapshots ahead)")
         axis.set_ylabel("RMS error per latent" if space == "latent" else "RMS error per grid value")
