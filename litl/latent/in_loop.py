@@ -108,18 +108,18 @@ def measure(codec: LatentCodec, params, buffer: ReplayBuffer, key, settings: Dyn
         "dynamics/mlp/best_epoch": fit.best_epoch,
     }
     decode = lambda z: codec.decode(params, z).astype(dtype)
-    steps = {"linear": linear.step, "mlp": mlp.step}
+    decoded = decode(latents)  # every snapshot's reconstruction: the floor's and the baseline's
     for h in settings.horizons:
-        guesses = {
-            name: predict(step, latents, actions, validation_links, h)[0] for name, step in steps.items()
-        }
-        guesses["constant"] = latents[:-h]
-        usable = predict(linear.step, latents, actions, validation_links, h)[1]  # the same for every model
+        linear_guess, usable = predict(linear.step, latents, actions, validation_links, h)
+        mlp_guess, _ = predict(mlp.step, latents, actions, validation_links, h)  # the same `usable`
+        guesses = {"linear": linear_guess, "mlp": mlp_guess}
         target, target_field = latents[h:], fields[h:]
         for name, guess in guesses.items():
             stats[f"dynamics/latent/{name}/h={h}"] = _rms(guess - target, usable)
             stats[f"dynamics/decoded/{name}/h={h}"] = _rms(decode(guess) - target_field, usable)
-        stats[f"dynamics/decoded/floor/h={h}"] = _rms(decode(target) - target_field, usable)
+        stats[f"dynamics/latent/constant/h={h}"] = _rms(latents[:-h] - target, usable)
+        stats[f"dynamics/decoded/constant/h={h}"] = _rms(decoded[:-h] - target_field, usable)
+        stats[f"dynamics/decoded/floor/h={h}"] = _rms(decoded[h:] - target_field, usable)
         stats[f"dynamics/starts/h={h}"] = jnp.sum(usable).astype(jnp.int32)
     return {name: stats[name] for name in statistic_names(settings)}
 

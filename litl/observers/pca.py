@@ -131,7 +131,7 @@ def project(params: PCAParams, flat):
 
 def encode(params: PCAParams, fields):
     """(B, r) the features of fields (B, *window, d)."""
-    return jax.vmap(lambda flat: project(params, flat))(fields.reshape(fields.shape[0], -1))
+    return project(params, fields.reshape(fields.shape[0], -1))
 
 
 def decode(params: PCAParams, latents):
