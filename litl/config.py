@@ -489,7 +489,12 @@ class Config(Settings):
         self._positive_ints("seeds")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             self._invalid("seed", "must be an integer >= 0")
-        open_loop = registry("controller").get(self.controller.kind).traits.get("open_loop", False)
+        traits = registry("controller").get(self.controller.kind).traits
+        if traits.get("plans", False):
+            from litl.controllers.latent import refusal
+
+            raise refusal(self.controller.kind)
+        open_loop = traits.get("open_loop", False)
         if open_loop and self.observer.kind != "none":
             raise SettingsError(
                 f"observer.kind={self.observer.kind!r}: the {self.controller.kind} controller is open "

@@ -49,14 +49,18 @@ def register(
     settings: type[Settings] | None = None,
     *,
     open_loop: bool = False,
+    plans: bool = False,
     label: str | None = None,
     replace: bool = False,
 ) -> None:
     """Make `factory(robot, settings, context) -> Controller` selectable as `name` (CLI
     `controller=<name>`), with `settings` its frozen settings dataclass (CLI
     `controller.<name>.<key>=value`) or None; `open_loop`: it reads no features (the run must
-    use observer none)."""
-    CONTROLLERS.register(name, factory, settings, label=label, replace=replace, open_loop=open_loop)
+    use observer none); `plans`: it plans with a trained run's latent model and is not trained
+    by the loop (a training run with it is refused; `litl.controllers.latent`)."""
+    CONTROLLERS.register(
+        name, factory, settings, label=label, replace=replace, open_loop=open_loop, plans=plans
+    )
 
 
 def names() -> tuple[str, ...]:

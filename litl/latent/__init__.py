@@ -6,8 +6,12 @@ from the replay buffer's transitions, their multi-step prediction error, and fin
   frozen settings (`LinearSettings`, `MLPSettings`).
 * `litl.latent.prediction`: `prediction_error`, h-step errors beside the constant-latent baseline.
 * `litl.latent.lqr`: `LQRProblem`, `solve` (backward Riccati recursion), `rollout`.
-
-No controller is registered from here yet (docs/guide/latent-control.md says what is missing).
+* `litl.latent.model`: `LatentModel` (a dynamics model and a velocity readout), `fit_model` from
+  a seed's replay buffer.
+* `litl.latent.planning`: `Goal`, shooting MPC (`MPCSettings`, `mpc_step`) and LQR on the
+  position-augmented linear model (`LQRSettings`, `augmented_problem`), `control` (an episode in
+  `litl.envs`); registered as `controller=latent_mpc`, `latent_lqr` and run on a trained run by
+  `python -m litl.latent.control` (docs/guide/latent-control.md).
 """
 
 from litl.latent.dynamics import (

@@ -30,8 +30,9 @@ import jax
 import jax.numpy as jnp
 
 from litl.latent.dynamics import Transitions, fit_linear, fit_mlp
+from litl.latent.model import encode_buffer
 from litl.latent.prediction import predict
-from litl.models.replay_buffer import ReplayBuffer, chronological
+from litl.models.replay_buffer import ReplayBuffer
 from litl.observers.interface import LatentCodec
 from litl.settings import SettingsError
 from litl.settings.dynamics import DynamicsConfig
@@ -83,15 +84,9 @@ def held_out_rollouts(links, count, key, fraction: float):
 def measure(codec: LatentCodec, params, buffer: ReplayBuffer, key, settings: DynamicsConfig) -> dict:
     """The statistics named by `statistic_names`, for one seed's buffer under Θ = `params`
     (jit-compiled; vmappable over seeds; a NaN where nothing could be measured)."""
-    order, links = chronological(buffer)
-    capacity = links.shape[0]
-    valid = jnp.arange(capacity) < buffer.count
-    fields = buffer.fields[order]
+    encoded = encode_buffer(codec, params, buffer)
+    fields, latents, actions, links = encoded.fields, encoded.latents, encoded.actions, encoded.links
     dtype = fields.dtype
-    # Stale slots may hold anything: zero them before they reach the encoder.
-    fields = jnp.where(valid.reshape((-1,) + (1,) * (fields.ndim - 1)), fields, 0)
-    latents = jnp.where(valid[:, None], codec.encode(params, fields).astype(dtype), 0)
-    actions = buffer.actions[order].astype(dtype)
     split_key, fit_key = jax.random.split(key)
     held, n_rollouts, n_held = held_out_rollouts(links, buffer.count, split_key, settings.validation_fraction)
     train_links, validation_links = links & ~held, links & held

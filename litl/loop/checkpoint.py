@@ -92,6 +92,19 @@ class Checkpoints:
             f"directory, or move {self.directory} away to start this run over."
         )
 
+    def read_latest(self, template_state, template_counters: dict):
+        """(state, counters) of the newest checkpoint, read only: unlike `restore`, nothing is
+        moved aside and a failure raises (for readers of a finished run, `litl.latent.control`)."""
+        step = self.latest()
+        if step is None:
+            raise CheckpointError(f"{self.directory} holds no checkpoint")
+        template = {
+            "state": template_state,
+            "counters": {k: np.asarray(v) for k, v in template_counters.items()},
+        }
+        item = self._restore(step, template)
+        return jax.tree.map(_placed_like, template_state, item["state"]), item["counters"]
+
     def _restore(self, step: int, template: dict) -> dict:
         """Checkpoint `step` read into host arrays shaped as `template`'s leaves (np.empty: no
         memory touched), a buffer without actions upgraded to the template's."""

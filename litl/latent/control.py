@@ -1,0 +1,327 @@
+"""`python -m litl.latent.control RUN_DIR`: steer a trained run's robot to a new goal by planning in
+its observer's latent space.
+
+    python -m litl.latent.control RUN_DIR --goal walk:-1                      # walk the other way
+    python -m litl.latent.control RUN_DIR --goal reach:0.6 --planner latent_lqr
+    python -m litl.latent.control RUN_DIR --goal reach:0.6 --set horizon=20 --set iterations=50
+    python -m litl.latent.control RUN_DIR --goal reach:0.6 --planner trained  # the run's own MLP
+
+From the run's newest checkpoint (its replay buffer, with the actions recorded between snapshots,
+and its observer) it fits, per seed, a `litl.latent.model.LatentModel` (the dynamics model of
+`loop.dynamics`' settings, on every transition, and the velocity readout), then runs one episode
+of the robot (its co-designed body) in `litl.envs` under the planner, every seed vmapped in one
+jit-compiled program. Planners (`controller=` names, `litl.latent.planning`): ``latent_mpc``
+(shooting MPC through the MLP model; `--set model=linear` for the linear one), ``latent_lqr``
+(reach goals only), and two references: ``trained`` (the run's own controller, which was trained
+for its own task, simulated as the run simulated it) and ``rest`` (no actuation).
+
+Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`): per seed the centroid along the
+goal's axis at every control step, the final position, the goal's error (reach: |x_T − target|;
+walk: the displacement in the goal's direction), the fit's readout R², the planning's model
+evaluations per control step, and the wall time (compile apart). A run whose observer has no
+latent space, or whose buffer holds no actions, is refused, naming it; so is a reach target outside
+the domain; a non-finite plan is named with its seed and control step (exit status 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import pathlib
+import sys
+import time
+from typing import Any
+
+from litl.errors import UserError, exit_on_user_error
+
+REFERENCES = ("trained", "rest")
+
+
+class ControlError(UserError, ValueError):
+    """A run or request the latent planners cannot serve; the message says why and what to do."""
+
+
+def _settings(planner: str, overrides: list[str]):
+    """The planner's settings with `key=value` overrides (types from the dataclass's fields)."""
+    from litl.latent.planning import PLANNERS
+
+    cls = PLANNERS[planner]
+    values = {}
+    names = {f.name: f for f in dataclasses.fields(cls)}
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        if not sep or key not in names:
+            raise ControlError(f"--set {item!r}: write KEY=VALUE with KEY one of {sorted(names)} ({planner})")
+        default = getattr(cls(), key)
+        try:
+            values[key] = type(default)(text) if not isinstance(default, str) else text
+        except ValueError:
+            raise ControlError(f"--set {item!r}: {key} takes a {type(default).__name__}") from None
+    return cls(**values)
+
+
+def load(run_dir: pathlib.Path):
+    """(robot, config, algorithm, seeds, state) of a run's newest checkpoint, refused with a
+    `ControlError` where the latent planners cannot use it."""
+    import numpy as np
+
+    from litl.loop import make_algorithm, stack_seeds
+    from litl.loop.checkpoint import Checkpoints
+    from litl.replay import load_run_config
+
+    robot, config = load_run_config(run_dir)
+    algorithm = make_algorithm(robot, config.algorithm)
+    learner = algorithm.observer.learner
+    if learner is None or learner.latent is None:
+        raise ControlError(
+            f"{run_dir}: its observer ({config.observer.kind}) has no latent space to plan in; "
+            f"the latent planners need a run with observer vae, ae or pca"
+        )
+    checkpoints = run_dir / "checkpoints"
+    if not checkpoints.is_dir():
+        raise ControlError(f"{run_dir} holds no checkpoints/ (its replay buffer): not a litl run directory")
+    seeds = [config.seed + s for s in range(config.seeds)]
+    template = stack_seeds([algorithm.init(s) for s in seeds])
+    counters: dict[str, Any] = {"episodes_done": 0, "metrics_lines": 0, "learning_lines": 0}
+    counters["loss_before_retrain"] = np.full(len(seeds), np.nan)  # the run shell's counters
+    try:
+        state, _ = Checkpoints(checkpoints).read_latest(template, counters)
+    except Exception as error:  # orbax raises many kinds for a mismatched or damaged checkpoint
+        raise ControlError(
+            f"{checkpoints}: its newest checkpoint cannot be read as this run's "
+            f"({str(error).strip().splitlines()[0][:200]}); was it written by another litl version?"
+        ) from None
+    if state.buffer.n_actions == 0 or not np.any(np.asarray(state.buffer.follows)):
+        raise ControlError(
+            f"{run_dir}: its replay buffer records no actions between snapshots (a run made before "
+            f"they were recorded); train the run again to plan with it"
+        )
+    return robot, config, algorithm, seeds, state
+
+
+def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=None, out=None) -> dict:
+    """Plan toward `goal` in every seed of the run (see the module docstring); the summary
+    written to `out` (its ``failures`` name the seeds whose plans were not finite)."""
+    import jax
+    import jax.numpy as jnp
+
+    from litl.latent.planning import PLANNERS, Goal
+
+    run_dir = pathlib.Path(run_dir)
+    if planner not in (*PLANNERS, *REFERENCES):
+        raise ControlError(f"--planner {planner!r}: choose one of {(*PLANNERS, *REFERENCES)}")
+    parsed = Goal.parse(goal)
+    settings = _settings(planner, list(overrides)) if planner in PLANNERS else None
+    robot, config, algorithm, all_seeds, state = load(run_dir)
+    parsed.check((0.0, robot.config.grid_shape[parsed.axis] * robot.config.dx))
+    chosen = all_seeds if seeds is None else list(seeds)
+    missing = [s for s in chosen if s not in all_seeds]
+    if missing:
+        raise ControlError(f"--seeds {missing}: the run has seeds {all_seeds}")
+    state = jax.tree.map(lambda leaf: leaf[jnp.asarray([all_seeds.index(s) for s in chosen])], state)
+    episode = _Episode(robot, config, algorithm, parsed, planner, settings)
+    if planner == "trained":
+        results, fits, times = _trained(robot, algorithm, state, episode.stride, parsed.axis), None, {}
+    else:
+        results, fits, times = episode.run(state, chosen)
+    summary = _summary(run_dir, episode, chosen, results, fits, times)
+    out = pathlib.Path(out) if out else run_dir / "control" / f"{planner}-{parsed.kind}{parsed.value:g}.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    failures = summary.pop("failures")
+    out.write_text(json.dumps(summary, indent=1))
+    return {**summary, "out": str(out), "failures": failures}
+
+
+@dataclasses.dataclass(frozen=True)
+class _Episode:
+    """One planner's episode of every chosen seed, as one jit-compiled vmapped program."""
+
+    robot: Any
+    config: Any
+    algorithm: Any
+    goal: Any
+    planner: str
+    settings: Any
+
+    @property
+    def stride(self) -> int:
+        """Simulation steps per control step: the snapshot stride the model was fitted on."""
+        return min(self.config.loop.snapshot_stride, self.algorithm.steps)
+
+    @property
+    def control_steps(self) -> int:
+        return self.algorithm.steps // self.stride
+
+    def run(self, state, chosen):
+        """(results, the fits' statistics, {compile_s, run_s}) of every seed, vmapped."""
+        import jax
+        import jax.numpy as jnp
+
+        from litl.envs import make
+
+        dtype = jnp.dtype(self.config.sim.dtype.value)
+        first = jax.tree.map(lambda leaf: leaf[0], state.observer)  # each seed's replaces it
+        observer = self.algorithm.observer
+        env, env_params = make(
+            self.robot, self.stride, None, "observer", dtype, observer=observer, observer_params=first
+        )
+        one = lambda *args: self._one(env, env_params, dtype, *args)
+        keys = jax.vmap(lambda s: jax.random.fold_in(jax.random.key(s), 78))(jnp.asarray(chosen))
+        arguments = (state.observer, state.buffer, state.design, keys)
+        started = time.perf_counter()
+        compiled = jax.jit(jax.vmap(one)).lower(*arguments).compile()
+        compile_s = time.perf_counter() - started
+        started = time.perf_counter()
+        results, fits = jax.block_until_ready(compiled(*arguments))
+        return results, fits, {"compile_s": compile_s, "run_s": time.perf_counter() - started}
+
+    def _one(self, env, env_params, dtype, observer, buffer, design, key):
+        import jax
+        import jax.numpy as jnp
+
+        from litl.latent.model import fit_model
+        from litl.latent.planning import control
+
+        robot, goal = self.robot, self.goal
+        params = env_params.replace(design=robot.design_space.to_design(design, dtype), observer=observer)
+        kind = getattr(self.settings, "model", "linear" if self.planner == "latent_lqr" else "mlp")
+        codec = self.algorithm.observer.learner.latent
+        control_dt = self.stride * robot.config.dt
+        model, fit = fit_model(codec, observer, buffer, key, self.config.loop.dynamics, control_dt, kind)
+        if self.planner != "rest":
+            return control(env, params, model, goal, self.settings, key, self.control_steps), fit
+        _, env_state = env.reset(key, params)
+        zero = jnp.zeros(env.num_actions, dtype)
+
+        def still(carry, _):
+            carry = env.step_env(key, carry, zero, params)[1]
+            return carry, _centroid(env, carry)[goal.axis]
+
+        _, positions = jax.lax.scan(still, env_state, None, length=self.control_steps)
+        return {"positions": jnp.concatenate([_centroid(env, env_state)[goal.axis][None], positions])}, fit
+
+
+def _summary(run_dir, episode: _Episode, chosen, results, fits, times) -> dict:
+    """What the command writes: the episode's settings and costs, and each seed's entry."""
+    from litl.latent.planning import model_steps
+
+    settings, goal = episode.settings, episode.goal
+    run_s = times.get("run_s")
+    summary = {
+        "run_dir": pathlib.Path(run_dir).name,
+        "planner": episode.planner,
+        "goal": {"kind": goal.kind, "value": goal.value, "axis": goal.axis},
+        "settings": dataclasses.asdict(settings) if settings is not None else None,
+        "control_dt": episode.stride * episode.robot.config.dt,
+        "control_steps": episode.control_steps,
+        "compile_s": times.get("compile_s"),
+        "run_s": run_s,
+        "wall_s_per_control_step": None if run_s is None else run_s / episode.control_steps / len(chosen),
+        "model_steps_per_control_step": model_steps(settings) if settings is not None else None,
+        "seeds": [],
+        "failures": [],
+    }
+    for i, seed in enumerate(chosen):
+        entry = _seed_entry(goal, i, seed, results, fits)
+        summary["seeds"].append(entry)
+        if entry.get("first_nonfinite_step") is not None:
+            step = entry["first_nonfinite_step"]
+            summary["failures"].append(
+                f"seed {seed}: the plan's prediction was not finite at control step {step}"
+            )
+    return summary
+
+
+def _seed_entry(goal, i: int, seed: int, results, fits) -> dict:
+    import numpy as np
+
+    from litl.latent.planning import first_nonfinite
+
+    track = np.asarray(results["positions"][i], float)
+    entry = {
+        "seed": seed,
+        "start": float(track[0]),
+        "final": float(track[-1]),
+        "positions": [round(float(x), 6) for x in track],
+    }
+    if goal.kind == "reach":
+        entry["error"] = abs(float(track[-1]) - goal.value)
+        entry["start_error"] = abs(float(track[0]) - goal.value)
+    else:
+        entry["displacement"] = float(np.sign(goal.value) * (track[-1] - track[0]))
+    if fits is not None:
+        entry["readout_r2"] = np.asarray(fits["readout_r2"][i], float).tolist()
+        entry["model_epochs"] = int(fits["epochs"][i])
+        entry["transitions"] = int(fits["transitions"][i])
+    if "predicted" in results:  # the model's one-step position error under the planner's actions
+        miss = np.asarray(results["predicted"][i], float) - track[1:]
+        entry["one_step_position_rms"] = float(np.sqrt(np.mean(miss**2)))
+        entry["one_step_motion_rms"] = float(np.sqrt(np.mean(np.diff(track) ** 2)))
+    if "nonfinite" in results:
+        entry["first_nonfinite_step"] = first_nonfinite(results["nonfinite"][i])
+    return entry
+
+
+def _centroid(env, env_state):
+    from litl.sim.rollout import centroid
+
+    return centroid(env.robot.own(env_state.sim))
+
+
+def _trained(robot, algorithm, state, stride: int, axis: int) -> dict:
+    """The run's own controller, simulated as the run simulated it: the centroid every `stride`
+    steps from the start."""
+    import jax
+    import jax.numpy as jnp
+
+    from litl.sim import make_rollout
+    from litl.sim.rollout import centroid
+
+    observe = lambda s: centroid(robot.own(s))[axis]
+    rollout = make_rollout(
+        robot.config, robot.body(), algorithm.policy, algorithm.steps, field=algorithm.field, observe=observe
+    )
+    initial = robot.initial_state()
+
+    def one(controller, observer, design):
+        _, trajectory = rollout((controller, observer), robot.design_space.to_design(design), initial)
+        track = trajectory.observations[stride - 1 :: stride]
+        return jnp.concatenate([observe(initial)[None], track])
+
+    positions = jax.jit(jax.vmap(one))(state.controller, state.observer, state.design)
+    return {"positions": positions}
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m litl.latent.control", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("run_dir", type=pathlib.Path)
+    parser.add_argument("--goal", required=True, help="reach:<x position> or walk:<+1 or -1>")
+    parser.add_argument("--planner", default="latent_mpc", help="latent_mpc, latent_lqr, trained or rest")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a planner setting")
+    parser.add_argument("--seeds", type=lambda s: [int(x) for x in s.split(",")], default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    with exit_on_user_error("python -m litl.latent.control", os_errors=True):
+        summary = run(args.run_dir, args.goal, args.planner, args.set, args.seeds, args.out)
+    for entry in summary["seeds"]:
+        what = (
+            f"error {entry['error']:.4f} (from {entry['start_error']:.4f})"
+            if "error" in entry
+            else f"displacement {entry['displacement']:+.4f}"
+        )
+        print(f"seed {entry['seed']}: final {entry['final']:.4f}, {what}")
+    print(f"wrote {summary['out']}")
+    for failure in summary["failures"]:
+        print(f"litl.latent.control: {failure}", file=sys.stderr)
+    return 1 if summary["failures"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

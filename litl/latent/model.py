@@ -1,0 +1,170 @@
+"""A latent model to plan with: z' = f(z, a) and a linear readout of the robot's velocity from z.
+
+A planner in the observer's latent space needs two things the observer alone does not give: how
+the latent moves under an action (a dynamics model, `litl.latent.dynamics`), and what the task
+cares about as a function of the latent. The latents are codes of the grid's velocity field, so
+what they hold of a walker's task is its velocity: the replay buffer keeps the robot's mean
+particle velocity beside every snapshot, and a ridge least-squares readout v ≈ Wᵀ z + b fitted on
+them (the VAE is trained with a linear momentum head for the same reason) turns a predicted
+latent trajectory into a predicted displacement, Δx = Σ_t control_dt · v(z_{t+1}).
+
+`fit_model(codec, params, buffer, key, settings, ...)` encodes one seed's buffer in the order its
+snapshots were stored (`encode_buffer`, shared with the in-loop measurement), fits the chosen
+dynamics model on every transition, and the readout on every valid snapshot. Jittable and
+vmappable over seeds.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Self
+
+import jax.numpy as jnp
+from flax import struct
+
+from litl.latent.dynamics import LinearDynamics, Transitions, fit_linear, fit_mlp
+from litl.models.replay_buffer import ReplayBuffer, chronological
+from litl.settings.dynamics import DynamicsConfig
+
+MODELS = ("mlp", "linear")
+
+
+@struct.dataclass
+class Encoded:
+    """One seed's buffer in stored order, encoded (`encode_buffer`).
+
+    Attributes:
+      fields: (T, *window, d) the snapshots, oldest first (zero past `valid`).
+      latents: (T, r) their latents (zero past `valid`).
+      actions: (T, m) the action that led to each from the one before.
+      velocities: (T, d) the robot's mean particle velocity at each.
+      links: (T,) bool, where (latents[t-1], actions[t], latents[t]) is a transition.
+      valid: (T,) bool, the slots that hold snapshots.
+    """
+
+    fields: jnp.ndarray
+    latents: jnp.ndarray
+    actions: jnp.ndarray
+    velocities: jnp.ndarray
+    links: jnp.ndarray
+    valid: jnp.ndarray
+
+
+def encode_buffer(codec, params, buffer: ReplayBuffer) -> Encoded:
+    """The buffer's snapshots in the order they were stored, encoded by `codec` under `params`."""
+    order, links = chronological(buffer)
+    valid = jnp.arange(links.shape[0]) < buffer.count
+    fields = buffer.fields[order]
+    dtype = fields.dtype
+    # Stale slots may hold anything: zero them before they reach the encoder.
+    fields = jnp.where(valid.reshape((-1,) + (1,) * (fields.ndim - 1)), fields, 0)
+    latents = jnp.where(valid[:, None], codec.encode(params, fields).astype(dtype), 0)
+    return Encoded(
+        fields=fields,
+        latents=latents,
+        actions=buffer.actions[order].astype(dtype),
+        velocities=jnp.where(valid[:, None], buffer.velocities[order].astype(dtype), 0),
+        links=links,
+        valid=valid,
+    )
+
+
+@struct.dataclass
+class LatentModel:
+    """What a latent planner predicts with.
+
+    Attributes:
+      dynamics: a `LinearDynamics` or `MLPDynamics` (``step(z, a) -> z'``, one control step).
+      readout: (r, d) W of the velocity readout v(z) = Wᵀ z + b.
+      offset: (d,) its b.
+      control_dt: seconds per control step (the snapshot stride times the simulation's dt).
+    """
+
+    dynamics: Any
+    readout: jnp.ndarray
+    offset: jnp.ndarray
+    control_dt: float = struct.field(pytree_node=False)
+
+    if TYPE_CHECKING:  # flax.struct adds `replace` at run time; declared for the type checker
+
+        def replace(self, **changes: Any) -> Self: ...
+
+    @property
+    def latent_size(self) -> int:
+        return self.readout.shape[0]
+
+    def step(self, latent, action):
+        """(r,) z, (m,) a -> (r,) z' one control step later."""
+        return self.dynamics.step(latent, action)
+
+    def velocity(self, latent):
+        """(d,) the robot's mean velocity read from the (r,) latent."""
+        return latent @ self.readout + self.offset
+
+
+def fit_readout(latents, velocities, mask, ridge: float = 1e-6):
+    """(W (r, d), b (d,), R² per axis (d,)) of the ridge least-squares fit v ≈ Wᵀ z + b over the
+    rows in `mask` (the offset is not penalized); R² is on the same rows (NaN where the velocity
+    does not vary)."""
+    weight = mask.astype(latents.dtype)[:, None]
+    count = jnp.maximum(jnp.sum(weight), 1)
+    inputs = jnp.concatenate([latents, jnp.ones_like(latents[:, :1])], axis=1) * weight
+    targets = velocities * weight
+    r = latents.shape[1]
+    penalty = jnp.concatenate([jnp.ones(r), jnp.zeros(1)]).astype(inputs.dtype)
+    gram = inputs.T @ inputs / count + ridge * jnp.diag(penalty)
+    theta = jnp.linalg.solve(gram, inputs.T @ targets / count)
+    residual = (inputs @ theta - targets) * weight
+    mean = jnp.sum(targets, axis=0) / count
+    spread = jnp.sum(((velocities - mean) * weight) ** 2, axis=0)
+    r2 = jnp.where(spread > 0, 1 - jnp.sum(residual**2, axis=0) / jnp.maximum(spread, 1e-30), jnp.nan)
+    return theta[:r], theta[r], r2
+
+
+def fit_model(
+    codec, params, buffer: ReplayBuffer, key, settings: DynamicsConfig, control_dt: float, kind: str = "mlp"
+) -> tuple[LatentModel, dict]:
+    """(the model, its fit's statistics) from one seed's buffer under the observer's `params`.
+
+    Args:
+      codec: the observer's `LatentCodec` (`Learner.latent`).
+      settings: the dynamics models' settings (`loop.dynamics`: `.linear`, `.mlp`).
+      control_dt: seconds per control step (`loop.snapshot_stride` times the simulation's dt).
+      kind: ``"mlp"`` (z' = z + g(z, a)) or ``"linear"`` (z' = A z + B a + c).
+
+    Returns:
+      statistics: ``readout_r2`` (d,) on the buffer, ``transitions``, and for the MLP its
+      ``epochs`` and ``best_epoch`` (-1 for the linear model).
+    """
+    if kind not in MODELS:
+        raise ValueError(f"kind={kind!r}: a latent model is one of {MODELS}")
+    encoded = encode_buffer(codec, params, buffer)
+    data = Transitions.from_sequence(encoded.latents, encoded.actions, encoded.links)
+    if kind == "linear":
+        dynamics: Any = fit_linear(data, settings.linear)
+        epochs = best = jnp.array(-1, jnp.int32)
+    else:
+        dynamics, fit = fit_mlp(key, data, settings.mlp)
+        epochs, best = fit.epochs, fit.best_epoch
+    readout, offset, r2 = fit_readout(
+        encoded.latents, encoded.velocities, encoded.valid, settings.linear.ridge
+    )
+    stats = {
+        "readout_r2": r2,
+        "transitions": jnp.sum(data.mask).astype(jnp.int32),
+        "epochs": epochs,
+        "best_epoch": best,
+    }
+    return LatentModel(dynamics, readout, offset, float(control_dt)), stats
+
+
+def linear_part(model: LatentModel) -> LinearDynamics:
+    """The model's `LinearDynamics` (LQR needs one); a ValueError for any other model."""
+    if not isinstance(model.dynamics, LinearDynamics):
+        raise ValueError(
+            f"LQR needs the linear latent model; this one is {type(model.dynamics).__name__} "
+            f"(fit it with kind='linear')"
+        )
+    return model.dynamics
+
+
+__all__ = ["MODELS", "Encoded", "LatentModel", "encode_buffer", "fit_model", "fit_readout", "linear_part"]

@@ -1,0 +1,323 @@
+"""Planning in the observer's latent space: model-predictive control by shooting, and LQR.
+
+Both planners act on a trained run's robot through `litl.envs` (one environment step is one
+control step: the action held for `loop.snapshot_stride` simulation steps, the step the latent
+model was fitted on) and read the observer's latent z of the grid after each step and the robot's
+true centroid x. They plan with a `LatentModel` (`litl.latent.model`): z' = f(z, a) and the
+velocity readout v(z), so a plan's predicted position is x_t = x_0 + Σ_{s<=t} Δ v(z_s)[axis].
+
+Goals (`Goal`), goals the trained controller never saw:
+
+* ``reach``: bring the centroid to `value` along the axis and stop there. Cost of a plan of H
+  actions: (1/H) Σ_t (x_t − value)² + stop · (H Δ)² |v(z_H)|² + action_cost · mean(a²), in units
+  of length².
+* ``walk``: walk in the direction sign(`value`) (+1: +x, −1: −x). Cost: −sign · (x_H − x_0) / (H Δ)
+  (the plan's mean speed) + action_cost · mean(a²).
+
+`mpc_step` improves a plan (H, m) of logits (actions are tanh of them, in [-1, 1]) by
+`MPCSettings.iterations` Adam steps on that cost (optax), warm-started by the previous plan
+shifted by one step; `control` re-plans every `replan_every` control steps inside one
+`lax.scan` (no Python loop per control step). `lqr_gains` steers the linear model augmented with
+the position, s = (z, x): x' = x + Δ (Wᵀ(A z + B a + c) + b)[axis], an affine system, to
+(z_rest, value) by `litl.latent.lqr.solve`, applied as a receding horizon (the first gain at every
+step). The count of model evaluations per control step is part of the result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from litl.errors import UserError
+from litl.latent.lqr import LQRProblem, solve
+from litl.latent.model import LatentModel, linear_part
+from litl.settings import Settings
+
+GOALS = ("reach", "walk")
+
+
+class GoalError(UserError, ValueError):
+    """A goal litl cannot plan for; the message says what is wrong and what is allowed."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Goal:
+    """A task the planner is given (see the module docstring).
+
+    Attributes:
+      kind: ``"reach"`` or ``"walk"``.
+      value: reach: the target position along `axis` (domain units); walk: the direction (+1, −1).
+      axis: which coordinate of the centroid (0: x).
+    """
+
+    kind: str
+    value: float
+    axis: int = 0
+
+    @classmethod
+    def parse(cls, text: str) -> Goal:
+        """``"reach:0.6"`` or ``"walk:-1"``."""
+        kind, _, value = str(text).partition(":")
+        try:
+            number = float(value)
+        except ValueError:
+            raise GoalError(
+                f"goal {text!r}: write KIND:VALUE, reach:<x position> or walk:<+1 or -1>"
+            ) from None
+        goal = cls(kind, number)
+        goal.check()
+        return goal
+
+    def check(self, bounds: tuple[float, float] | None = None) -> None:
+        """GoalError for an unknown kind, a non-finite value, a walk direction other than ±1, or
+        (given the domain's `bounds` along the axis) a reach target outside them."""
+        if self.kind not in GOALS:
+            raise GoalError(f"goal kind {self.kind!r}: choose one of {GOALS}")
+        if not math.isfinite(self.value):
+            raise GoalError(f"goal {self.kind}:{self.value}: the value must be finite")
+        if self.kind == "walk" and self.value not in (1.0, -1.0):
+            raise GoalError(f"goal walk:{self.value:g}: the direction is +1 or -1")
+        if self.kind == "reach" and bounds is not None:
+            low, high = bounds
+            if not low < self.value < high:
+                raise GoalError(
+                    f"goal reach:{self.value:g}: the target lies outside the domain along axis "
+                    f"{self.axis}, ({low:g}, {high:g}); choose a position inside it"
+                )
+
+
+@dataclasses.dataclass(frozen=True)
+class MPCSettings(Settings):
+    """Model-predictive control by gradient-based shooting through the latent model
+    (`controller=latent_mpc`).
+
+    Attributes:
+      horizon: H, control steps planned ahead.
+      iterations: Adam steps on the plan at each re-planning.
+      learning_rate: Adam's step size on the plan's logits.
+      replan_every: control steps between re-plannings (1: every step).
+      action_cost: weight of mean(a²) in the cost.
+      stop: reach goals: weight of the predicted final speed's term.
+      model: the latent model planned through, ``mlp`` or ``linear``.
+    """
+
+    KEY = "controller.latent_mpc"
+    horizon: int = 10
+    iterations: int = 30
+    learning_rate: float = 0.3
+    replan_every: int = 1
+    action_cost: float = 1e-4
+    stop: float = 1.0
+    model: str = "mlp"
+
+    def check(self) -> None:
+        self._positive_ints("horizon", "iterations", "replan_every")
+        self._positive_numbers("learning_rate")
+        self._positive_numbers("action_cost", "stop", zero=True)
+        if self.model not in ("mlp", "linear"):
+            self._invalid("model", "must be mlp or linear")
+
+
+@dataclasses.dataclass(frozen=True)
+class LQRSettings(Settings):
+    """Receding-horizon LQR on the linear latent model augmented with the position
+    (`controller=latent_lqr`; reach goals only).
+
+    Attributes:
+      horizon: control steps of the Riccati recursion (its first gain is applied at every step).
+      action_cost: R = action_cost · I.
+      latent_cost: Q's weight on z − z_rest (keeps the latent near the robot's rest).
+      stop: Qf's weight on z − z_rest at the horizon.
+    """
+
+    KEY = "controller.latent_lqr"
+    horizon: int = 20
+    action_cost: float = 1e-4
+    latent_cost: float = 1e-6
+    stop: float = 1e-4
+
+    def check(self) -> None:
+        self._positive_ints("horizon")
+        self._positive_numbers("action_cost")
+        self._positive_numbers("latent_cost", "stop", zero=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# Shooting MPC
+
+
+def plan_cost(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings):
+    """() the cost of the plan `logits` (H, m) from latent z (r,) and position x (), and the
+    predicted (positions (H,), latents (H, r))."""
+    actions = jnp.tanh(logits)
+    dt = model.control_dt
+
+    def forward(carry, action):
+        z, x = carry
+        z = model.step(z, action)
+        x = x + dt * model.velocity(z)[goal.axis]
+        return (z, x), (z, x)
+
+    (last, end), (latents, positions) = jax.lax.scan(forward, (latent, position), actions)
+    effort = settings.action_cost * jnp.mean(actions**2)
+    horizon = logits.shape[0]
+    if goal.kind == "reach":
+        speed = model.velocity(last)
+        stopping = settings.stop * (horizon * dt) ** 2 * jnp.sum(speed**2)
+        cost = jnp.mean((positions - goal.value) ** 2) + stopping
+    else:
+        cost = -jnp.sign(goal.value) * (end - position) / (horizon * dt)
+    return cost + effort, (positions, latents)
+
+
+def mpc_step(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings):
+    """(the improved plan, its cost before and after): `settings.iterations` Adam steps on
+    `plan_cost` from `logits`."""
+    adam = optax.adam(settings.learning_rate)
+    value_and_grad = jax.value_and_grad(lambda u: plan_cost(u, latent, position, model, goal, settings)[0])
+
+    def improve(carry, _):
+        plan, state = carry
+        cost, grad = value_and_grad(plan)
+        updates, state = adam.update(grad, state, plan)
+        return (optax.apply_updates(plan, updates), state), cost
+
+    (plan, _), costs = jax.lax.scan(improve, (logits, adam.init(logits)), None, length=settings.iterations)
+    final = plan_cost(plan, latent, position, model, goal, settings)[0]
+    return plan, costs[0], final
+
+
+def shift(plan):
+    """The warm start for the next control step: the plan without its first action, its last
+    action repeated."""
+    return jnp.concatenate([plan[1:], plan[-1:]])
+
+
+# ---------------------------------------------------------------------------------------------
+# LQR on the position-augmented linear model
+
+
+def augmented_problem(model: LatentModel, goal: Goal, rest_latent, settings: LQRSettings) -> LQRProblem:
+    """The LQR problem of s = (z, x) with x' = x + Δ v(z')[axis] (see the module docstring)."""
+    if goal.kind != "reach":
+        raise GoalError(f"goal {goal.kind}: latent_lqr plans reach goals only (latent_mpc plans walk)")
+    linear = linear_part(model)
+    r, m = linear.B.shape
+    dt = model.control_dt
+    w, b = model.readout[:, goal.axis], model.offset[goal.axis]
+    A = jnp.block([[linear.A, jnp.zeros((r, 1))], [dt * (w @ linear.A)[None], jnp.ones((1, 1))]])
+    B = jnp.concatenate([linear.B, dt * (w @ linear.B)[None]])
+    c = jnp.concatenate([linear.c, (dt * (w @ linear.c + b))[None]])
+    dtype = linear.A.dtype
+    weights = jnp.concatenate([jnp.full(r, settings.latent_cost, dtype), jnp.ones(1, dtype)])
+    final = jnp.concatenate([jnp.full(r, settings.stop, dtype), jnp.ones(1, dtype)])
+    target = jnp.concatenate([rest_latent.astype(dtype), jnp.full(1, goal.value, dtype)])
+    return LQRProblem(
+        A=A,
+        B=B,
+        c=c,
+        Q=jnp.diag(weights),
+        R=settings.action_cost * jnp.eye(m, dtype=dtype),
+        Qf=jnp.diag(final),
+        target=target,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# A whole episode under a planner, in the environment
+
+
+def control(env, env_params, model: LatentModel, goal: Goal, settings, key, steps: int | None = None) -> dict:
+    """One episode of `env` (a trained run's environment, `litl.replay.environment`, with
+    ``hold`` the model's control step) under the planner `settings` (`MPCSettings` or
+    `LQRSettings`) toward `goal`. Pure and jittable with `goal`, `settings` and `steps` static.
+
+    Returns:
+      positions (T + 1,) the centroid along the goal's axis from the start; predicted (T,) the
+      model's position one control step after each action (from the true position and latent);
+      actions (T, m);
+      planned_cost (T,) the plan's cost after planning (MPC; NaN at steps that did not re-plan)
+      or the cost-to-go of the state (LQR);
+      nonfinite (T,) bool where the plan's prediction was not finite (the action is then 0).
+    """
+    from litl.sim.rollout import centroid
+
+    steps = env_params.max_steps if steps is None else steps
+    r = model.latent_size
+    where = lambda state: centroid(env.robot.own(state.sim))[goal.axis]
+    obs, state = env.reset(key, env_params)
+    m = env.num_actions
+    if isinstance(settings, LQRSettings):
+        problem = augmented_problem(model, goal, obs[:r], settings)
+        solution = solve(problem, settings.horizon)
+        gain, offset = solution.gains[0], solution.offsets[0]
+
+        def act(obs, state, plan, t):
+            s = jnp.concatenate([obs[:r], where(state)[None]])
+            action = -gain @ (s - problem.target) - offset
+            return plan, jnp.clip(action, -1, 1), solution.cost_to_go(s, problem.target), jnp.array(True)
+
+    else:
+        every = settings.replan_every
+
+        def act(obs, state, plan, t):
+            def replan(plan):
+                better, _, cost = mpc_step(plan, obs[:r], where(state), model, goal, settings)
+                return better, cost
+
+            replans = t % every == 0
+            plan, cost = jax.lax.cond(replans, replan, lambda p: (p, jnp.full((), jnp.nan, p.dtype)), plan)
+            return plan, jnp.tanh(plan[0]), cost, replans
+
+    horizon = getattr(settings, "horizon", 1)
+    plan0 = jnp.zeros((horizon, m), obs.dtype)
+
+    def one(carry, t):
+        obs, state, plan = carry
+        plan, action, cost, replanned = act(obs, state, plan, t)
+        # A plan whose prediction is not finite is not acted on (its action is 0, and it is named).
+        finite = jnp.all(jnp.isfinite(action)) & jnp.all(jnp.isfinite(plan))
+        finite = finite & (~replanned | jnp.isfinite(cost))
+        action = jnp.where(finite, action, 0.0)
+        plan = jnp.where(finite, plan, 0.0)
+        # What the model expects of the action it chose: the position one control step later.
+        predicted = where(state) + model.control_dt * model.velocity(model.step(obs[:r], action))[goal.axis]
+        obs, state, _, _, _ = env.step_env(key, state, action, env_params)
+        return (obs, state, shift(plan)), (where(state), predicted, action, cost, ~finite)
+
+    start = where(state)
+    _, (positions, predicted, actions, costs, nonfinite) = jax.lax.scan(
+        one, (obs, state, plan0), jnp.arange(steps)
+    )
+    return {
+        "positions": jnp.concatenate([start[None], positions]),
+        "predicted": predicted,
+        "actions": actions,
+        "planned_cost": costs,
+        "nonfinite": nonfinite,
+    }
+
+
+def model_steps(settings) -> float:
+    """Model evaluations (forward passes) of one control step's planning: H (iterations + 1) per
+    re-planning for MPC (its gradients add about twice that), 0 for LQR (solved once per
+    episode: `horizon` Riccati steps)."""
+    if isinstance(settings, MPCSettings):
+        return settings.horizon * (settings.iterations + 1) / settings.replan_every
+    return 0.0
+
+
+def first_nonfinite(nonfinite) -> int | None:
+    """The first control step whose plan was not finite, or None."""
+    import numpy as np
+
+    steps = np.flatnonzero(np.asarray(nonfinite))
+    return int(steps[0]) if steps.size else None
+
+
+PLANNERS: dict[str, Any] = {"latent_mpc": MPCSettings, "latent_lqr": LQRSettings}
