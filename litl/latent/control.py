@@ -12,8 +12,9 @@ and its observer) it fits, per seed, a `litl.latent.model.LatentModel` (the dyna
 of the robot (its co-designed body) in `litl.envs` under the planner, every seed vmapped in one
 jit-compiled program. Planners (`controller=` names, `litl.latent.planning`): ``latent_mpc``
 (shooting MPC through the MLP model; `--set model=linear` for the linear one), ``latent_lqr``
-(reach goals only), and two references: ``trained`` (the run's own controller, which was trained
-for its own task, simulated as the run simulated it) and ``rest`` (no actuation).
+(reach goals only), and three references: ``trained`` (the run's own controller, which was
+trained for its own task, simulated as the run simulated it), ``rest`` (no actuation) and
+``oracle_mpc`` (the same MPC, `latent_mpc`'s settings, planning through the simulator itself).
 
 Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`): per seed the centroid along the
 goal's axis at every control step, the final position, the goal's error (reach: |x_T − target|;
@@ -35,7 +36,7 @@ from typing import Any
 
 from litl.errors import UserError, exit_on_user_error
 
-REFERENCES = ("trained", "rest")
+REFERENCES = ("trained", "rest", "oracle_mpc")
 
 
 class ControlError(UserError, ValueError):
@@ -44,9 +45,9 @@ class ControlError(UserError, ValueError):
 
 def _settings(planner: str, overrides: list[str]):
     """The planner's settings with `key=value` overrides (types from the dataclass's fields)."""
-    from litl.latent.planning import PLANNERS
+    from litl.latent.planning import PLANNERS, MPCSettings
 
-    cls = PLANNERS[planner]
+    cls = PLANNERS.get(planner, MPCSettings)  # oracle_mpc: the MPC's settings
     values = {}
     names = {f.name: f for f in dataclasses.fields(cls)}
     for item in overrides:
@@ -112,7 +113,7 @@ def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=Non
     if planner not in (*PLANNERS, *REFERENCES):
         raise ControlError(f"--planner {planner!r}: choose one of {(*PLANNERS, *REFERENCES)}")
     parsed = Goal.parse(goal)
-    settings = _settings(planner, list(overrides)) if planner in PLANNERS else None
+    settings = _settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
     robot, config, algorithm, all_seeds, state = load(run_dir)
     parsed.check((0.0, robot.config.grid_shape[parsed.axis] * robot.config.dx))
     chosen = all_seeds if seeds is None else list(seeds)
@@ -190,7 +191,8 @@ class _Episode:
         control_dt = self.stride * robot.config.dt
         model, fit = fit_model(codec, observer, buffer, key, self.config.loop.dynamics, control_dt, kind)
         if self.planner != "rest":
-            return control(env, params, model, goal, self.settings, key, self.control_steps), fit
+            oracle = self.planner == "oracle_mpc"
+            return control(env, params, model, goal, self.settings, key, self.control_steps, oracle), fit
         _, env_state = env.reset(key, params)
         zero = jnp.zeros(env.num_actions, dtype)
 
@@ -219,6 +221,10 @@ def _summary(run_dir, episode: _Episode, chosen, results, fits, times) -> dict:
         "run_s": run_s,
         "wall_s_per_control_step": None if run_s is None else run_s / episode.control_steps / len(chosen),
         "model_steps_per_control_step": model_steps(settings) if settings is not None else None,
+        # the oracle's planning simulates (and differentiates) this many steps per control step
+        "sim_steps_per_control_step": (
+            model_steps(settings) * episode.stride if episode.planner == "oracle_mpc" else None
+        ),
         "seeds": [],
         "failures": [],
     }

@@ -20,7 +20,10 @@ shifted by one step; `control` re-plans every `replan_every` control steps insid
 `lax.scan` (no Python loop per control step). `lqr_gains` steers the linear model augmented with
 the position, s = (z, x): x' = x + Δ (Wᵀ(A z + B a + c) + b)[axis], an affine system, to
 (z_rest, value) by `litl.latent.lqr.solve`, applied as a receding horizon (the first gain at every
-step). The count of model evaluations per control step is part of the result.
+step). The count of model evaluations per control step is part of the result. With `oracle`,
+the same MPC plans through the simulator itself (`true_plan_cost`): the reference that says
+what the held actions can do at all, at H (iterations + 1) · hold simulation steps per control
+step, each differentiated.
 """
 
 from __future__ import annotations
@@ -151,9 +154,19 @@ class LQRSettings(Settings):
 # Shooting MPC
 
 
+def goal_cost(positions, start, final_velocity, actions, duration, goal: Goal, settings: MPCSettings):
+    """() a plan's cost (the module docstring's) from its positions (H,) along the goal's axis,
+    the start's, the velocity (d,) at its end, its actions (H, m) and its duration (s)."""
+    effort = settings.action_cost * jnp.mean(actions**2)
+    if goal.kind == "reach":
+        stopping = settings.stop * duration**2 * jnp.sum(final_velocity**2)
+        return jnp.mean((positions - goal.value) ** 2) + stopping + effort
+    return -jnp.sign(goal.value) * (positions[-1] - start) / duration + effort
+
+
 def plan_cost(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings):
-    """() the cost of the plan `logits` (H, m) from latent z (r,) and position x (), and the
-    predicted (positions (H,), latents (H, r))."""
+    """() the cost of the plan `logits` (H, m) through the latent model from latent z (r,) and
+    position x (), and the predicted (positions (H,), latents (H, r))."""
     actions = jnp.tanh(logits)
     dt = model.control_dt
 
@@ -163,33 +176,50 @@ def plan_cost(logits, latent, position, model: LatentModel, goal: Goal, settings
         x = x + dt * model.velocity(z)[goal.axis]
         return (z, x), (z, x)
 
-    (last, end), (latents, positions) = jax.lax.scan(forward, (latent, position), actions)
-    effort = settings.action_cost * jnp.mean(actions**2)
-    horizon = logits.shape[0]
-    if goal.kind == "reach":
-        speed = model.velocity(last)
-        stopping = settings.stop * (horizon * dt) ** 2 * jnp.sum(speed**2)
-        cost = jnp.mean((positions - goal.value) ** 2) + stopping
-    else:
-        cost = -jnp.sign(goal.value) * (end - position) / (horizon * dt)
-    return cost + effort, (positions, latents)
+    (last, _), (latents, positions) = jax.lax.scan(forward, (latent, position), actions)
+    duration = logits.shape[0] * dt
+    cost = goal_cost(positions, position, model.velocity(last), actions, duration, goal, settings)
+    return cost, (positions, latents)
 
 
-def mpc_step(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings):
+def true_plan_cost(logits, env, env_params, state, goal: Goal, settings: MPCSettings, key):
+    """() the cost of the plan `logits` (H, m) through the simulator itself from the environment
+    state `state` (the oracle: MPC through the true differentiable simulation)."""
+    actions = jnp.tanh(logits)
+
+    def forward(state, action):
+        state = env.step_env(key, state, action, env_params)[1]
+        return state, _robot(env, state)
+
+    last, positions = jax.lax.scan(forward, state, actions)
+    positions = positions[:, goal.axis]
+    duration = logits.shape[0] * env_params.hold * env.robot.config.dt
+    velocity = jnp.mean(env.robot.own(last.sim).v, axis=0)
+    start = _robot(env, state)[goal.axis]
+    return goal_cost(positions, start, velocity, actions, duration, goal, settings)
+
+
+def _robot(env, state):
+    """(d,) the robot's centroid in an environment state."""
+    from litl.sim.rollout import centroid
+
+    return centroid(env.robot.own(state.sim))
+
+
+def mpc_step(logits, cost, settings: MPCSettings):
     """(the improved plan, its cost before and after): `settings.iterations` Adam steps on
-    `plan_cost` from `logits`."""
+    `cost(logits) -> ()` (`plan_cost` or `true_plan_cost` with the rest bound) from `logits`."""
     adam = optax.adam(settings.learning_rate)
-    value_and_grad = jax.value_and_grad(lambda u: plan_cost(u, latent, position, model, goal, settings)[0])
+    value_and_grad = jax.value_and_grad(cost)
 
     def improve(carry, _):
         plan, state = carry
-        cost, grad = value_and_grad(plan)
+        value, grad = value_and_grad(plan)
         updates, state = adam.update(grad, state, plan)
-        return (optax.apply_updates(plan, updates), state), cost
+        return (optax.apply_updates(plan, updates), state), value
 
     (plan, _), costs = jax.lax.scan(improve, (logits, adam.init(logits)), None, length=settings.iterations)
-    final = plan_cost(plan, latent, position, model, goal, settings)[0]
-    return plan, costs[0], final
+    return plan, costs[0], cost(plan)
 
 
 def shift(plan):
@@ -232,10 +262,21 @@ def augmented_problem(model: LatentModel, goal: Goal, rest_latent, settings: LQR
 # A whole episode under a planner, in the environment
 
 
-def control(env, env_params, model: LatentModel, goal: Goal, settings, key, steps: int | None = None) -> dict:
+def control(
+    env,
+    env_params,
+    model: LatentModel,
+    goal: Goal,
+    settings,
+    key,
+    steps: int | None = None,
+    oracle: bool = False,
+) -> dict:
     """One episode of `env` (a trained run's environment, `litl.replay.environment`, with
     ``hold`` the model's control step) under the planner `settings` (`MPCSettings` or
-    `LQRSettings`) toward `goal`. Pure and jittable with `goal`, `settings` and `steps` static.
+    `LQRSettings`) toward `goal`. Pure and jittable with `goal`, `settings`, `steps` and `oracle`
+    static. `oracle`: MPC plans through the simulator itself (`true_plan_cost`), not the model
+    (the model then only gives `predicted`).
 
     Returns:
       positions (T + 1,) the centroid along the goal's axis from the start; predicted (T,) the
@@ -245,11 +286,9 @@ def control(env, env_params, model: LatentModel, goal: Goal, settings, key, step
       or the cost-to-go of the state (LQR);
       nonfinite (T,) bool where the plan's prediction was not finite (the action is then 0).
     """
-    from litl.sim.rollout import centroid
-
     steps = env_params.max_steps if steps is None else steps
     r = model.latent_size
-    where = lambda state: centroid(env.robot.own(state.sim))[goal.axis]
+    where = lambda state: _robot(env, state)[goal.axis]
     obs, state = env.reset(key, env_params)
     m = env.num_actions
     if isinstance(settings, LQRSettings):
@@ -266,9 +305,14 @@ def control(env, env_params, model: LatentModel, goal: Goal, settings, key, step
         every = settings.replan_every
 
         def act(obs, state, plan, t):
+            if oracle:
+                cost = lambda u: true_plan_cost(u, env, env_params, state, goal, settings, key)
+            else:
+                cost = lambda u: plan_cost(u, obs[:r], where(state), model, goal, settings)[0]
+
             def replan(plan):
-                better, _, cost = mpc_step(plan, obs[:r], where(state), model, goal, settings)
-                return better, cost
+                better, _, after = mpc_step(plan, cost, settings)
+                return better, after
 
             replans = t % every == 0
             plan, cost = jax.lax.cond(replans, replan, lambda p: (p, jnp.full((), jnp.nan, p.dtype)), plan)

@@ -23,8 +23,10 @@ from litl.latent.planning import (
     control,
     mpc_step,
     plan_cost,
+    true_plan_cost,
 )
 from litl.loop.run import run
+from litl.sim.rollout import centroid
 from tests.loop.tiny import tiny_config, tiny_robot
 
 DT = 0.1
@@ -67,10 +69,8 @@ def test_the_shooting_objectives_gradient_matches_float64_central_differences(go
 def test_mpc_brings_an_integrator_to_its_target_and_stops_it_there():
     model, goal = integrator(), Goal("reach", 0.5)
     settings = MPCSettings(horizon=15, iterations=200, learning_rate=0.1, stop=1.0, action_cost=0.0)
-    plan = jnp.zeros((15, 2))
-    plan, before, after = jax.jit(mpc_step, static_argnums=(4, 5))(
-        plan, jnp.zeros(2), 0.0, model, goal, settings
-    )
+    cost = lambda u: plan_cost(u, jnp.zeros(2), 0.0, model, goal, settings)[0]
+    plan, before, after = jax.jit(lambda u: mpc_step(u, cost, settings))(jnp.zeros((15, 2)))
     # The running cost cannot vanish: the first steps are spent getting there.
     assert after < 0.15 * before
     _, (positions, latents) = plan_cost(plan, jnp.zeros(2), 0.0, model, goal, settings)
@@ -153,6 +153,17 @@ def test_a_planner_runs_an_episode_in_the_environment_in_2d_and_3d(robot, dx, st
     assert not np.any(np.asarray(out["nonfinite"]))
 
 
+def test_the_oracle_plans_through_the_simulator_and_improves_its_own_plan():
+    env, env_params = litl.envs.make("biped", hold=10, dx=1 / 32)
+    _, state = env.reset(jax.random.key(0), env_params)
+    settings = MPCSettings(horizon=4, iterations=5, learning_rate=1.0, action_cost=0.0, stop=0.0)
+    goal = Goal("reach", float(centroid(env.robot.own(state.sim))[0]) + 0.1)
+    cost = lambda u: true_plan_cost(u, env, env_params, state, goal, settings, jax.random.key(0))
+    plan, before, after = jax.jit(lambda u: mpc_step(u, cost, settings))(jnp.zeros((3, env.num_actions)))
+    assert np.isfinite(float(before)) and float(after) < float(before)  # it moved toward the goal
+    assert np.any(np.asarray(plan) != 0)
+
+
 def test_a_nonfinite_prediction_is_not_acted_on_and_is_named():
     env, env_params = litl.envs.make("biped", hold=4, dx=1 / 32)
     model = _obs_model(env, env_params)
@@ -172,11 +183,11 @@ def trained_run(tmp_path_factory):
     return run_dir
 
 
-@pytest.mark.parametrize("planner", ["latent_mpc", "latent_lqr", "trained", "rest"])
+@pytest.mark.parametrize("planner", ["latent_mpc", "latent_lqr", "trained", "rest", "oracle_mpc"])
 def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, planner, capsys):
     out = tmp_path / "out.json"
     arguments = [str(trained_run), "--goal", "reach:0.6", "--planner", planner, "--out", str(out)]
-    if planner == "latent_mpc":
+    if planner in ("latent_mpc", "oracle_mpc"):
         arguments += ["--set", "horizon=3", "--set", "iterations=2"]
     assert cli.main(arguments) == 0
     summary = json.loads(out.read_text())
@@ -184,9 +195,11 @@ def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, p
     for entry in summary["seeds"]:
         assert len(entry["positions"]) == summary["control_steps"] + 1 == 40 // 10 + 1
         assert entry["error"] == pytest.approx(abs(entry["final"] - 0.6))
-    if planner == "latent_mpc":
+    if planner in ("latent_mpc", "oracle_mpc"):
         assert summary["settings"]["horizon"] == 3
         assert summary["model_steps_per_control_step"] == 3 * 3
+    if planner == "oracle_mpc":  # 3 plans of 3 control steps of 10 simulation steps
+        assert summary["sim_steps_per_control_step"] == 3 * 3 * 10
     assert "seed 0: final" in capsys.readouterr().out
 
 
