@@ -43,7 +43,7 @@ class ControlError(UserError, ValueError):
     """A run or request the latent planners cannot serve; the message says why and what to do."""
 
 
-def _settings(planner: str, overrides: list[str]):
+def planner_settings(planner: str, overrides: list[str]):
     """The planner's settings with `key=value` overrides (types from the dataclass's fields)."""
     from litl.latent.planning import PLANNERS, MPCSettings
 
@@ -113,7 +113,7 @@ def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=Non
     if planner not in (*PLANNERS, *REFERENCES):
         raise ControlError(f"--planner {planner!r}: choose one of {(*PLANNERS, *REFERENCES)}")
     parsed = Goal.parse(goal)
-    settings = _settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
+    settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
     robot, config, algorithm, all_seeds, state = load(run_dir)
     parsed.check((0.0, robot.config.grid_shape[parsed.axis] * robot.config.dx))
     chosen = all_seeds if seeds is None else list(seeds)
@@ -121,7 +121,7 @@ def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=Non
     if missing:
         raise ControlError(f"--seeds {missing}: the run has seeds {all_seeds}")
     state = jax.tree.map(lambda leaf: leaf[jnp.asarray([all_seeds.index(s) for s in chosen])], state)
-    episode = _Episode(robot, config, algorithm, parsed, planner, settings)
+    episode = Episode(robot, config, algorithm, parsed, planner, settings)
     if planner == "trained":
         results, fits, times = _trained(robot, algorithm, state, episode.stride, parsed.axis), None, {}
     else:
@@ -135,7 +135,7 @@ def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=Non
 
 
 @dataclasses.dataclass(frozen=True)
-class _Episode:
+class Episode:
     """One planner's episode of every chosen seed, as one jit-compiled vmapped program."""
 
     robot: Any
@@ -154,8 +154,8 @@ class _Episode:
     def control_steps(self) -> int:
         return self.algorithm.steps // self.stride
 
-    def run(self, state, chosen):
-        """(results, the fits' statistics, {compile_s, run_s}) of every seed, vmapped."""
+    def program(self, state, chosen):
+        """(the jitted program of every seed, vmapped: fit, then the episode; its arguments)."""
         import jax
         import jax.numpy as jnp
 
@@ -169,9 +169,15 @@ class _Episode:
         )
         one = lambda *args: self._one(env, env_params, dtype, *args)
         keys = jax.vmap(lambda s: jax.random.fold_in(jax.random.key(s), 78))(jnp.asarray(chosen))
-        arguments = (state.observer, state.buffer, state.design, keys)
+        return jax.jit(jax.vmap(one)), (state.observer, state.buffer, state.design, keys)
+
+    def run(self, state, chosen):
+        """(results, the fits' statistics, {compile_s, run_s}) of every seed, vmapped."""
+        import jax
+
+        program, arguments = self.program(state, chosen)
         started = time.perf_counter()
-        compiled = jax.jit(jax.vmap(one)).lower(*arguments).compile()
+        compiled = program.lower(*arguments).compile()
         compile_s = time.perf_counter() - started
         started = time.perf_counter()
         results, fits = jax.block_until_ready(compiled(*arguments))
@@ -204,7 +210,7 @@ class _Episode:
         return {"positions": jnp.concatenate([_centroid(env, env_state)[goal.axis][None], positions])}, fit
 
 
-def _summary(run_dir, episode: _Episode, chosen, results, fits, times) -> dict:
+def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
     """What the command writes: the episode's settings and costs, and each seed's entry."""
     from litl.latent.planning import model_steps
 

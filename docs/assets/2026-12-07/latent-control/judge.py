@@ -1,0 +1,106 @@
+"""The plan's 12 tests (plan.md, written before the runs) and its descriptive cells, from results/.
+
+    python docs/assets/2026-12-07/latent-control/judge.py > docs/assets/2026-12-07/latent-control/judge.txt
+
+Measures per seed: walk goals, the displacement in the goal's direction (more is better); reach,
+the final |x - 0.37| (less is better). Paired t (two-sided) where both cells are the same run's
+seeds, Welch between the VAE's and PCA's runs; 90% t intervals; Holm over the 12.
+"""
+
+import json
+import pathlib
+
+import numpy as np
+from scipy import stats
+
+HERE = pathlib.Path(__file__).parent / "results"
+GOALS = {"walk1": "walk:+1", "walk-1": "walk:-1", "reach0.37": "reach:0.37"}
+PLANNERS = ("trained", "rest", "latent_mpc", "latent_mpc_linear", "latent_lqr", "oracle_mpc")
+
+
+def load(obs: str, planner: str, goal: str):
+    path = HERE / obs / f"{planner}-{goal}.json"
+    if not path.exists():
+        return None
+    summary = json.loads(path.read_text())
+    seeds = sorted(summary["seeds"], key=lambda s: s["seed"])
+    key = "error" if goal.startswith("reach") else "displacement"
+    return summary, np.array([s[key] for s in seeds])
+
+
+def interval(values) -> str:
+    values = np.asarray(values)
+    half = stats.t.ppf(0.95, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
+    return f"{values.mean():+.3f} [{values.mean() - half:+.3f}, {values.mean() + half:+.3f}]"
+
+
+def holm(p):
+    p = np.asarray(p, float)
+    order, adjusted, running = np.argsort(p), np.empty(len(p)), 0.0
+    for rank, i in enumerate(order):
+        running = max(running, (len(p) - rank) * p[i])
+        adjusted[i] = min(running, 1.0)
+    return adjusted
+
+
+def cells() -> None:
+    print("Cells: mean [90% CI] over seeds (walk: displacement, reach: final error)\n")
+    print(f"{'observer':8s} {'planner':18s} " + " ".join(f"{g:>28s}" for g in GOALS.values()))
+    for obs in ("vae", "pca"):
+        for planner in PLANNERS:
+            row = [load(obs, planner, g) for g in GOALS]
+            if all(r is None for r in row):
+                continue
+            text = " ".join(f"{interval(r[1]) if r is not None else '—':>28s}" for r in row)
+            print(f"{obs:8s} {planner:18s} {text}")
+    print("\nModel and cost (means over seeds and goals): readout R2, one-step position RMS under the")
+    print("planner's own actions / the step's own RMS, compile s, wall s per control step and seed")
+    for obs in ("vae", "pca"):
+        for planner in PLANNERS[2:]:
+            found = [load(obs, planner, g) for g in GOALS]
+            found = [f[0] for f in found if f is not None]
+            if not found:
+                continue
+            seeds = [s for f in found for s in f["seeds"]]
+            r2 = np.mean([np.mean(s["readout_r2"]) for s in seeds])
+            miss = np.mean([s["one_step_position_rms"] for s in seeds])
+            step = np.mean([s["one_step_motion_rms"] for s in seeds])
+            compile_s = np.mean([f["compile_s"] for f in found])
+            wall = np.mean([f["wall_s_per_control_step"] for f in found])
+            print(f"{obs:5s} {planner:18s} R2 {r2:.3f}  one-step {miss:.4f} / {step:.4f}  compile {compile_s:.0f} s  {wall * 1e3:.1f} ms")
+
+
+def tests() -> None:
+    family = []
+    for goal in ("walk-1", "reach0.37"):
+        for obs in ("vae", "pca"):
+            for other in ("rest", "trained"):
+                family.append((f"{obs} {GOALS[goal]}: latent_mpc - {other}", (obs, "latent_mpc", goal), (obs, other, goal), True))
+    for obs in ("vae", "pca"):
+        family.append((f"{obs} reach:0.37: latent_lqr - rest", (obs, "latent_lqr", "reach0.37"), (obs, "rest", "reach0.37"), True))
+    for goal in ("walk-1", "reach0.37"):
+        family.append((f"latent_mpc {GOALS[goal]}: vae - pca", ("vae", "latent_mpc", goal), ("pca", "latent_mpc", goal), False))
+    rows = []
+    for name, a, b, paired in family:
+        x, y = load(*a), load(*b)
+        if x is None or y is None:
+            rows.append((name, None))
+            continue
+        x, y = x[1], y[1]
+        test = stats.ttest_rel(x, y) if paired else stats.ttest_ind(x, y, equal_var=False)
+        diff = x - y if paired else None
+        text = interval(diff) if paired else f"{x.mean() - y.mean():+.3f} (Welch)"
+        rows.append((name, (text, test.pvalue)))
+    ready = [r for r in rows if r[1] is not None]
+    print(f"\nThe plan's family ({len(ready)} of {len(rows)} computable), Holm over {len(rows)}:")
+    adjusted = holm([r[1][1] for r in ready] + [1.0] * (len(rows) - len(ready)))
+    for (name, (text, p)), a in zip(ready, adjusted, strict=False):
+        print(f"  {name:40s} {text:34s} p {p:.2g}  Holm {a:.2g}")
+    for name, value in rows:
+        if value is None:
+            print(f"  {name:40s} not run")
+
+
+if __name__ == "__main__":
+    cells()
+    tests()
