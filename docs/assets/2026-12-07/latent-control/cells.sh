@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The plan's cells: every planner and goal on the reported runs (seeds 0-9), into results/<observer>/.
 #   bash docs/assets/2026-12-07/latent-control/cells.sh VAE_RUN PCA_RUN "PLANNERS" [--set ... for latent_mpc]
-# e.g. cells.sh /work/out/dyn/vae /work/out/dyn/pca "trained rest latent_lqr"
+# e.g. PYTHON=.venv/bin/python cells.sh VAE_RUN PCA_RUN "trained rest latent_lqr"
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 VAE=$1; PCA=$2; PLANNERS=$3; shift 3
@@ -17,8 +17,8 @@ for planner in $PLANNERS; do
       [ "$planner" = "latent_mpc_linear" ] && { planner_arg=latent_mpc; extra+=(--set model=linear); } || planner_arg=$planner
       mkdir -p "$HERE/results/$obs"
       ${PYTHON:-python} -m litl.latent.control "$run" --goal "$goal" --planner "$planner_arg" "${extra[@]}" \
-        --out "$HERE/results/$obs/$name.json" > "$HERE/results/$obs/$name.txt" 2>&1
-      echo "$obs $name rc=$? $(date -u +%H:%M:%S)"
+        --out "$HERE/results/$obs/$name.json" 2>&1 | grep -v absl | sed "s|$HERE/||" > "$HERE/results/$obs/$name.txt"
+      echo "$obs $name rc=${PIPESTATUS[0]} $(date -u +%H:%M:%S)"
     done
   done
 done

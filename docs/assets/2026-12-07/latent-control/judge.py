@@ -67,7 +67,10 @@ def cells() -> None:
             step = np.mean([s["one_step_motion_rms"] for s in seeds])
             compile_s = np.mean([f["compile_s"] for f in found])
             wall = np.mean([f["wall_s_per_control_step"] for f in found])
-            print(f"{obs:5s} {planner:18s} R2 {r2:.3f}  one-step {miss:.4f} / {step:.4f}  compile {compile_s:.0f} s  {wall * 1e3:.1f} ms")
+            print(
+                f"{obs:5s} {planner:18s} R2 {r2:.3f}  one-step {miss:.4f} / {step:.4f}  "
+                f"compile {compile_s:.0f} s  {wall * 1e3:.1f} ms"
+            )
 
 
 def tests() -> None:
@@ -75,11 +78,32 @@ def tests() -> None:
     for goal in ("walk-1", "reach0.37"):
         for obs in ("vae", "pca"):
             for other in ("rest", "trained"):
-                family.append((f"{obs} {GOALS[goal]}: latent_mpc - {other}", (obs, "latent_mpc", goal), (obs, other, goal), True))
+                family.append(
+                    (
+                        f"{obs} {GOALS[goal]}: latent_mpc - {other}",
+                        (obs, "latent_mpc", goal),
+                        (obs, other, goal),
+                        True,
+                    )
+                )
     for obs in ("vae", "pca"):
-        family.append((f"{obs} reach:0.37: latent_lqr - rest", (obs, "latent_lqr", "reach0.37"), (obs, "rest", "reach0.37"), True))
+        family.append(
+            (
+                f"{obs} reach:0.37: latent_lqr - rest",
+                (obs, "latent_lqr", "reach0.37"),
+                (obs, "rest", "reach0.37"),
+                True,
+            )
+        )
     for goal in ("walk-1", "reach0.37"):
-        family.append((f"latent_mpc {GOALS[goal]}: vae - pca", ("vae", "latent_mpc", goal), ("pca", "latent_mpc", goal), False))
+        family.append(
+            (
+                f"latent_mpc {GOALS[goal]}: vae - pca",
+                ("vae", "latent_mpc", goal),
+                ("pca", "latent_mpc", goal),
+                False,
+            )
+        )
     rows = []
     for name, a, b, paired in family:
         x, y = load(*a), load(*b)

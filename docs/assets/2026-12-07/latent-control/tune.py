@@ -1,6 +1,6 @@
 """Choose latent_mpc's horizon and iterations on the tuning run (seeds 100-102, never reported).
 
-    PYTHONPATH=. python docs/assets/2026-12-07/latent-control/tune.py /work/out/latent/tune-vae OUT_DIR
+    PYTHONPATH=. python docs/assets/2026-12-07/latent-control/tune.py TUNING_RUN_DIR OUT_DIR
 
 The rule, written before it ran (plan.md): every (horizon, iterations) of the grid plans both
 held-out goals (walk:-1, reach:0.37) on the three seeds; per goal the combinations are ranked by
@@ -59,7 +59,8 @@ def main(run_dir: str, out_dir: str) -> None:
     lines = [f"{'horizon':>7} {'iters':>5} {'walk:-1':>9} {'reach err':>9} {'rank':>5}"]
     for r in rows:
         lines.append(
-            f"{r['horizon']:7d} {r['iterations']:5d} {r['walk:-1']:+9.4f} {-r['reach:0.37']:9.4f} {r['mean_rank']:5.1f}"
+            f"{r['horizon']:7d} {r['iterations']:5d} {r['walk:-1']:+9.4f} "
+            f"{-r['reach:0.37']:9.4f} {r['mean_rank']:5.1f}"
         )
     lines.append(f"chosen: horizon={chosen['horizon']} iterations={chosen['iterations']}")
     (out / "tune.txt").write_text("\n".join(lines) + "\n")

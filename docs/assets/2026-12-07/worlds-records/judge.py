@@ -59,12 +59,20 @@ def main() -> None:
     modulus = {w: per_seed(data[w], "design_mean") for w in present}
     last10 = {w: -per_seed(data[w], "task_loss", last=10) for w in present}
     final = {
-        w: -np.array([r["task_loss"] for r in sorted(json.loads((HERE / w / "final.json").read_text()), key=lambda r: r["seed"])])
+        w: -np.array(
+            [
+                r["task_loss"]
+                for r in sorted(json.loads((HERE / w / "final.json").read_text()), key=lambda r: r["seed"])
+            ]
+        )
         for w in present
     }
     print("world   distance(last it.)  final.json      last 10         mean E")
     for w in present:
-        print(f"{w:7s} {interval(distance[w]):17s}  {interval(final[w]):14s}  {interval(last10[w]):14s}  {interval(modulus[w])}")
+        print(
+            f"{w:7s} {interval(distance[w]):17s}  {interval(final[w]):14s}  "
+            f"{interval(last10[w]):14s}  {interval(modulus[w])}"
+        )
     if "flat" not in present:
         print("flat not run yet: no tests")
         return
