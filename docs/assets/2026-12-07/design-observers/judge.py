@@ -122,6 +122,55 @@ def main() -> None:
         print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
     if adjusted is None:
         print("\n(Holm needs all 10 tests: not adjusted yet)")
+    reference(get("biped vae", "all"), get("biped kmeans kept", "all"))
+
+
+def last_record(path: pathlib.Path) -> dict:
+    import gzip
+
+    with gzip.open(path / "metrics.jsonl.gz", "rt") as lines:
+        return json.loads(lines.readlines()[-1])
+
+
+def grayness(path: pathlib.Path) -> np.ndarray:
+    """Each seed's `geometry/grayness` at its run's last record (seed order)."""
+    import gzip
+
+    with gzip.open(path / "metrics.jsonl.gz", "rt") as lines:
+        rows = [json.loads(line) for line in lines]
+    last = {r["seed"]: r for r in sorted(rows, key=lambda r: r["step"])}
+    return np.array([last[s]["geometry/grayness"] for s in sorted(last)])
+
+
+def reference(vae, kmeans) -> None:
+    """The addendum's family of 2: sep-CMA-ES (20x, design=all; one process per seed) against
+    litl VAE and litl k-means (kept clusters) under design=all, Welch two-sided, Holm over 2."""
+    folder = RECORDS / "biped" / "sep-cmaes-all"
+    seeds = sorted(folder.glob("seed*"), key=lambda p: int(p.name[4:]))
+    ended = [p for p in seeds if (p / "final.json").exists()]
+    cmaes = np.array([json.loads((p / "final.json").read_text())[0]["task_loss"] for p in ended])
+    gray = np.array([last_record(p)["geometry/grayness"] for p in ended])
+    print(
+        f"\nsep-CMA-ES (20x) design=all, {len(ended)} seeds: per seed " + ", ".join(f"{v:.3f}" for v in cmaes)
+    )
+    print(f"  mean {interval(cmaes)}; grayness {interval(gray)}")
+    print(f"  litl VAE grayness {interval(grayness(BEFORE / 'vae' / 'all'))}")
+    print(f"  litl k-means (kept) grayness {interval(grayness(BEFORE / 'kmeans' / 'all'))}")
+    if len(ended) < 10:
+        print(f"  {len(ended)} of 10 seeds ended: no verdict (the addendum's rule)")
+        return
+    tests = [
+        ("sep-CMA-ES minus litl VAE", welch(cmaes, vae)),
+        ("sep-CMA-ES minus litl k-means", welch(cmaes, kmeans)),
+    ]
+    adjusted = holm([t[1][2] for t in tests])
+    print(
+        "\n| test (design=all, final task loss) | difference [90% CI] | two-sided p | Holm p (2) | verdict |"
+    )
+    print("|---|---|---|---|---|")
+    for (label, (difference, text, p)), holm_p in zip(tests, adjusted, strict=True):
+        verdict = "not resolved" if not holm_p < 0.05 else ("lower" if difference < 0 else "higher")
+        print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
 
 
 if __name__ == "__main__":
