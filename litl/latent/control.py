@@ -16,7 +16,8 @@ jit-compiled program. Planners (`controller=` names, `litl.latent.planning`): ``
 trained for its own task, simulated as the run simulated it), ``rest`` (no actuation) and
 ``oracle_mpc`` (the same MPC, `latent_mpc`'s settings, planning through the simulator itself).
 
-Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`): per seed the centroid along the
+Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`; with `--animate` also the first
+chosen seed's episode as a .gif beside it): per seed the centroid along the
 goal's axis at every control step, the final position, the goal's error (reach: |x_T − target|;
 walk: the displacement in the goal's direction), the fit's readout R², the planning's model
 evaluations per control step, and the wall time (compile apart). A run whose observer has no
@@ -101,9 +102,13 @@ def load(run_dir: pathlib.Path):
     return robot, config, algorithm, seeds, state
 
 
-def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=None, out=None) -> dict:
+def run(
+    run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=None, out=None, animate=False
+) -> dict:
     """Plan toward `goal` in every seed of the run (see the module docstring); the summary
-    written to `out` (its ``failures`` name the seeds whose plans were not finite)."""
+    written to `out` (its ``failures`` name the seeds whose plans were not finite); `animate`:
+    also the first chosen seed's episode as a .gif beside it (not for ``trained``: use
+    `python -m litl.replay`)."""
     import jax
     import jax.numpy as jnp
 
@@ -131,7 +136,24 @@ def run(run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=Non
     out.parent.mkdir(parents=True, exist_ok=True)
     failures = summary.pop("failures")
     out.write_text(json.dumps(summary, indent=1))
-    return {**summary, "out": str(out), "failures": failures}
+    files = [str(out)]
+    if animate and "particles" in results:
+        files.append(str(_animate(robot, episode, results, 0, out)))
+    return {**summary, "out": str(out), "files": files, "failures": failures}
+
+
+def _animate(robot, episode, results, index: int, out: pathlib.Path) -> pathlib.Path:
+    """The first chosen seed's episode as `<out stem>.gif`: its particles after every control
+    step, coloured by the action held over it."""
+    import numpy as np
+
+    from litl.viz import animate_rollout
+
+    path = out.with_name(f"{out.stem}.gif")
+    particles = np.asarray(results["particles"][index])
+    actions = np.asarray(results["actions"][index])
+    control_dt = episode.stride * robot.config.dt
+    return animate_rollout(robot, particles, actions, path, fps=8, frame_seconds=control_dt)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,10 +226,16 @@ class Episode:
 
         def still(carry, _):
             carry = env.step_env(key, carry, zero, params)[1]
-            return carry, _centroid(env, carry)[goal.axis]
+            return carry, (_centroid(env, carry)[goal.axis], env.robot.own(carry.sim).x)
 
-        _, positions = jax.lax.scan(still, env_state, None, length=self.control_steps)
-        return {"positions": jnp.concatenate([_centroid(env, env_state)[goal.axis][None], positions])}, fit
+        _, (positions, particles) = jax.lax.scan(still, env_state, None, length=self.control_steps)
+        start = _centroid(env, env_state)[goal.axis][None]
+        actions = jnp.zeros((self.control_steps, env.num_actions), dtype)
+        return {
+            "positions": jnp.concatenate([start, positions]),
+            "particles": particles,
+            "actions": actions,
+        }, fit
 
 
 def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
@@ -315,13 +343,14 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a planner setting")
     parser.add_argument("--seeds", type=lambda s: [int(x) for x in s.split(",")], default=None)
     parser.add_argument("--out", type=pathlib.Path, default=None)
+    parser.add_argument("--animate", action="store_true", help="the first seed's episode as a .gif")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with exit_on_user_error("python -m litl.latent.control", os_errors=True):
-        summary = run(args.run_dir, args.goal, args.planner, args.set, args.seeds, args.out)
+        summary = run(args.run_dir, args.goal, args.planner, args.set, args.seeds, args.out, args.animate)
     for entry in summary["seeds"]:
         what = (
             f"error {entry['error']:.4f} (from {entry['start_error']:.4f})"
@@ -329,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
             else f"displacement {entry['displacement']:+.4f}"
         )
         print(f"seed {entry['seed']}: final {entry['final']:.4f}, {what}")
-    print(f"wrote {summary['out']}")
+    print("wrote " + ", ".join(summary["files"]))
     for failure in summary["failures"]:
         print(f"litl.latent.control: {failure}", file=sys.stderr)
     return 1 if summary["failures"] else 0

@@ -281,7 +281,7 @@ def control(
     Returns:
       positions (T + 1,) the centroid along the goal's axis from the start; predicted (T,) the
       model's position one control step after each action (from the true position and latent);
-      actions (T, m);
+      particles (T, n, d) the robot's particles after each control step; actions (T, m);
       planned_cost (T,) the plan's cost after planning (MPC; NaN at steps that did not re-plan)
       or the cost-to-go of the state (LQR);
       nonfinite (T,) bool where the plan's prediction was not finite (the action is then 0).
@@ -332,14 +332,16 @@ def control(
         # What the model expects of the action it chose: the position one control step later.
         predicted = where(state) + model.control_dt * model.velocity(model.step(obs[:r], action))[goal.axis]
         obs, state, _, _, _ = env.step_env(key, state, action, env_params)
-        return (obs, state, shift(plan)), (where(state), predicted, action, cost, ~finite)
+        particles = env.robot.own(state.sim).x
+        return (obs, state, shift(plan)), (where(state), predicted, action, cost, ~finite, particles)
 
     start = where(state)
-    _, (positions, predicted, actions, costs, nonfinite) = jax.lax.scan(
+    _, (positions, predicted, actions, costs, nonfinite, particles) = jax.lax.scan(
         one, (obs, state, plan0), jnp.arange(steps)
     )
     return {
         "positions": jnp.concatenate([start[None], positions]),
+        "particles": particles,
         "predicted": predicted,
         "actions": actions,
         "planned_cost": costs,

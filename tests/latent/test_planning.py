@@ -189,12 +189,16 @@ def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, p
     arguments = [str(trained_run), "--goal", "reach:0.6", "--planner", planner, "--out", str(out)]
     if planner in ("latent_mpc", "oracle_mpc"):
         arguments += ["--set", "horizon=3", "--set", "iterations=2"]
+    if planner == "latent_mpc":
+        arguments += ["--animate"]
     assert cli.main(arguments) == 0
     summary = json.loads(out.read_text())
     assert [s["seed"] for s in summary["seeds"]] == [0, 1]
     for entry in summary["seeds"]:
         assert len(entry["positions"]) == summary["control_steps"] + 1 == 40 // 10 + 1
         assert entry["error"] == pytest.approx(abs(entry["final"] - 0.6))
+    if planner == "latent_mpc":
+        assert out.with_suffix(".gif").stat().st_size > 0
     if planner in ("latent_mpc", "oracle_mpc"):
         assert summary["settings"]["horizon"] == 3
         assert summary["model_steps_per_control_step"] == 3 * 3
