@@ -262,6 +262,41 @@ def augmented_problem(model: LatentModel, goal: Goal, rest_latent, settings: LQR
 # A whole episode under a planner, in the environment
 
 
+def _policy(env, env_params, model: LatentModel, goal: Goal, settings, key, rest_latent, oracle: bool):
+    """act(obs, state, plan, t) -> (plan, action, its cost, whether it re-planned): the planner's
+    choice at control step t (see `control`)."""
+    r = model.latent_size
+    where = lambda state: _robot(env, state)[goal.axis]
+    if isinstance(settings, LQRSettings):
+        problem = augmented_problem(model, goal, rest_latent, settings)
+        solution = solve(problem, settings.horizon)
+        gain, offset = solution.gains[0], solution.offsets[0]
+
+        def act(obs, state, plan, t):
+            s = jnp.concatenate([obs[:r], where(state)[None]])
+            action = -gain @ (s - problem.target) - offset
+            return plan, jnp.clip(action, -1, 1), solution.cost_to_go(s, problem.target), jnp.array(True)
+
+    else:
+        every = settings.replan_every
+
+        def act(obs, state, plan, t):
+            if oracle:
+                cost = lambda u: true_plan_cost(u, env, env_params, state, goal, settings, key)
+            else:
+                cost = lambda u: plan_cost(u, obs[:r], where(state), model, goal, settings)[0]
+
+            def replan(plan):
+                better, _, after = mpc_step(plan, cost, settings)
+                return better, after
+
+            replans = t % every == 0
+            plan, cost = jax.lax.cond(replans, replan, lambda p: (p, jnp.full((), jnp.nan, p.dtype)), plan)
+            return plan, jnp.tanh(plan[0]), cost, replans
+
+    return act
+
+
 def control(
     env,
     env_params,
@@ -291,33 +326,7 @@ def control(
     where = lambda state: _robot(env, state)[goal.axis]
     obs, state = env.reset(key, env_params)
     m = env.num_actions
-    if isinstance(settings, LQRSettings):
-        problem = augmented_problem(model, goal, obs[:r], settings)
-        solution = solve(problem, settings.horizon)
-        gain, offset = solution.gains[0], solution.offsets[0]
-
-        def act(obs, state, plan, t):
-            s = jnp.concatenate([obs[:r], where(state)[None]])
-            action = -gain @ (s - problem.target) - offset
-            return plan, jnp.clip(action, -1, 1), solution.cost_to_go(s, problem.target), jnp.array(True)
-
-    else:
-        every = settings.replan_every
-
-        def act(obs, state, plan, t):
-            if oracle:
-                cost = lambda u: true_plan_cost(u, env, env_params, state, goal, settings, key)
-            else:
-                cost = lambda u: plan_cost(u, obs[:r], where(state), model, goal, settings)[0]
-
-            def replan(plan):
-                better, _, after = mpc_step(plan, cost, settings)
-                return better, after
-
-            replans = t % every == 0
-            plan, cost = jax.lax.cond(replans, replan, lambda p: (p, jnp.full((), jnp.nan, p.dtype)), plan)
-            return plan, jnp.tanh(plan[0]), cost, replans
-
+    act = _policy(env, env_params, model, goal, settings, key, obs[:r], oracle)
     horizon = getattr(settings, "horizon", 1)
     plan0 = jnp.zeros((horizon, m), obs.dtype)
 
