@@ -159,7 +159,8 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         ("robot.resolution=tiny", "Invalid value 'tiny', expected one of \\[paper, demo, smoke\\]"),
         (
             "controller.kind=mpl",
-            r"controller.kind='mpl': unknown controller; choose one of \['mlp', 'sinusoid'\]",
+            r"controller.kind='mpl': unknown controller; choose one of "
+            r"\['mlp', 'sinusoid', 'latent_mpc', 'latent_lqr'\]",
         ),
         ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
         ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),

@@ -38,11 +38,12 @@ def help_text() -> str:
     return done.stdout
 
 
-def test_the_seven_commands_are_found():
+def test_the_eight_commands_are_found():
     assert _commands() == {
         "litl.claims",
         "litl.claims.job",
         "litl.gradcheck",
+        "litl.latent.control",
         "litl.replay",
         "litl.report",
         "litl.report.budget",
