@@ -62,10 +62,7 @@ class Checkpoints:
         Raises:
           CheckpointError: no checkpoint restores; the message says what to do.
         """
-        template = {
-            "state": template_state,
-            "counters": {k: np.asarray(v) for k, v in template_counters.items()},
-        }
+        template = _template(template_state, template_counters)
         failures = []
         for step in sorted(self.manager.all_steps(), reverse=True):
             try:
@@ -98,10 +95,7 @@ class Checkpoints:
         step = self.latest()
         if step is None:
             raise CheckpointError(f"{self.directory} holds no checkpoint")
-        template = {
-            "state": template_state,
-            "counters": {k: np.asarray(v) for k, v in template_counters.items()},
-        }
+        template = _template(template_state, template_counters)
         item = self._restore(step, template)
         return jax.tree.map(_placed_like, template_state, item["state"]), item["counters"]
 
@@ -143,6 +137,11 @@ class Checkpoints:
         while candidate.exists():
             candidate, suffix = self.directory / f"{name}-{suffix}", suffix + 1
         return candidate
+
+
+def _template(template_state, template_counters: dict) -> dict:
+    """The item a checkpoint holds, shaped as the state and counters it restores into."""
+    return {"state": template_state, "counters": {k: np.asarray(v) for k, v in template_counters.items()}}
 
 
 def _placed_like(template, restored: np.ndarray):
