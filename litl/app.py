@@ -25,11 +25,12 @@ from litl.config import (
     Config,
     MaterialConfig,
     SettingsError,
+    TaskConfig,
     TaskKind,
 )
 from litl.loop.progress import say
 from litl.robots.robot import Robot
-from litl.robots.tasks import Locomotion, Task
+from litl.robots.tasks import Locomotion, Position, Task
 from litl.settings.old import chosen_kinds, sectioned_key, sectioned_message, translate_overrides
 from litl.settings.registry import import_module
 
@@ -157,9 +158,28 @@ def _placed(robot: Robot, config: Config) -> Robot:
             "task.kind",
         )
     if kind != TaskKind.default:
-        measure: Literal["distance", "velocity"] = "distance" if kind == TaskKind.locomotion else "velocity"
-        robot = dataclasses.replace(robot, task=Task(Locomotion(measure=measure)))
+        robot = dataclasses.replace(robot, task=Task(_task_term(robot, config.task)))
     return litl.designs.apply(litl.worlds.put(robot, config.world), config.design)
+
+
+def _task_term(robot: Robot, task: TaskConfig):
+    """The one term of `task=locomotion|velocity|position`, its axis and target checked against
+    the robot's domain."""
+    dim = robot.config.dim
+    if task.axis >= dim:
+        raise SettingsError(
+            f"task.axis={task.axis}: {robot.name} is {dim}D (axes 0 to {dim - 1})", "task.axis"
+        )
+    if task.kind == TaskKind.position:
+        size = robot.config.grid_shape[task.axis] * robot.config.dx
+        if not 0 < task.target < size:
+            raise SettingsError(
+                f"task.target={task.target}: outside the domain along axis {task.axis}, (0, {size:g})",
+                "task.target",
+            )
+        return Position(target=float(task.target), axis=task.axis)
+    measure: Literal["distance", "velocity"] = "distance" if task.kind == TaskKind.locomotion else "velocity"
+    return Locomotion(axis=task.axis, measure=measure, direction=float(task.direction))
 
 
 def _with_material(robot: Robot, material: MaterialConfig) -> Robot:

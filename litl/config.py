@@ -76,6 +76,7 @@ class TaskKind(enum.StrEnum):
     default = "default"  # the robot's own task (docs/guide/robots.md)
     locomotion = "locomotion"  # distance walked
     velocity = "velocity"  # mean forward velocity
+    position = "position"  # walk to a coordinate (task.target) and end there
 
 
 class Resolution(enum.StrEnum):
@@ -199,8 +200,36 @@ class RobotConfig(Settings):
 
 @dataclass(frozen=True)
 class TaskConfig(Settings):
+    """The objective (the `task.*` keys).
+
+    Attributes:
+      kind: default (the robot's own task), locomotion (the centroid's displacement), velocity
+        (its mean velocity at the end) or position (its squared distance to `target` at the end).
+      direction: +1 or -1, the way locomotion and velocity count (-1: walk the other way).
+      target: position's coordinate along `axis`, inside the domain [0, grid size * dx].
+      axis: the axis locomotion, velocity and position count along (0: x).
+    """
+
     KEY = "task"
     kind: TaskKind = TaskKind.default
+    direction: float = 1.0
+    target: float | None = None
+    axis: int = 0
+
+    def check(self) -> None:
+        kind = TaskKind(self.kind)
+        if self.direction not in (1, -1):
+            self._invalid("direction", "must be 1 or -1 (the way task=locomotion or velocity counts)")
+        if self.direction != 1 and kind not in (TaskKind.locomotion, TaskKind.velocity):
+            self._invalid("direction", f"applies to task=locomotion or velocity, not task={kind.value}")
+        if kind == TaskKind.position and not number(self.target):
+            self._invalid("target", "task=position needs the coordinate to end at: task.target=<number>")
+        if kind != TaskKind.position and self.target is not None:
+            self._invalid("target", f"applies to task=position, not task={kind.value}")
+        if isinstance(self.axis, bool) or not isinstance(self.axis, int) or self.axis < 0:
+            self._invalid("axis", "must be an axis index, 0 (x), 1 (y) or 2 (z, in 3D)")
+        if self.axis != 0 and kind == TaskKind.default:
+            self._invalid("axis", "applies to task=locomotion, velocity or position, not task=default")
 
 
 # The simulator's particle-to-grid sums (`litl.sim.config.PARTICLE_TO_GRID`, spelled again here:

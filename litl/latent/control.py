@@ -63,9 +63,10 @@ def planner_settings(planner: str, overrides: list[str]):
     return cls(**values)
 
 
-def load(run_dir: pathlib.Path):
+def load(run_dir: pathlib.Path, latent: bool = True):
     """(robot, config, algorithm, seeds, state) of a run's newest checkpoint, refused with a
-    `ControlError` where the latent planners cannot use it."""
+    `ControlError` where the latent planners cannot use it (`latent=False`: any trained run,
+    for the ``trained`` reference, e.g. open-loop sinusoids)."""
     import numpy as np
 
     from litl.loop import make_algorithm, stack_seeds
@@ -75,7 +76,7 @@ def load(run_dir: pathlib.Path):
     robot, config = load_run_config(run_dir)
     algorithm = make_algorithm(robot, config.algorithm)
     learner = algorithm.observer.learner
-    if learner is None or learner.latent is None:
+    if latent and (learner is None or learner.latent is None):
         raise ControlError(
             f"{run_dir}: its observer ({config.observer.kind}) has no latent space to plan in; "
             f"the latent planners need a run with observer vae, ae or pca"
@@ -94,7 +95,7 @@ def load(run_dir: pathlib.Path):
             f"{checkpoints}: its newest checkpoint cannot be read as this run's "
             f"({str(error).strip().splitlines()[0][:200]}); was it written by another litl version?"
         ) from None
-    if state.buffer.n_actions == 0 or not np.any(np.asarray(state.buffer.follows)):
+    if latent and (state.buffer.n_actions == 0 or not np.any(np.asarray(state.buffer.follows))):
         raise ControlError(
             f"{run_dir}: its replay buffer records no actions between snapshots (a run made before "
             f"they were recorded); train the run again to plan with it"
@@ -119,7 +120,7 @@ def run(
         raise ControlError(f"--planner {planner!r}: choose one of {(*PLANNERS, *REFERENCES)}")
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
-    robot, config, algorithm, all_seeds, state = load(run_dir)
+    robot, config, algorithm, all_seeds, state = load(run_dir, latent=planner != "trained")
     parsed.check((0.0, robot.config.grid_shape[parsed.axis] * robot.config.dx))
     chosen = all_seeds if seeds is None else list(seeds)
     missing = [s for s in chosen if s not in all_seeds]

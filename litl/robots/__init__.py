@@ -13,7 +13,7 @@ from litl.robots.image import layout_from_pixels, layout_from_png
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.robot import Material, Robot, Scene, check_fits, place
 from litl.robots.shapes import Box, Circle, Ellipse, Extrusion, Part, Polygon, Voxels, sample_parts
-from litl.robots.tasks import Locomotion, Push, Reach, Task, make_task_loss
+from litl.robots.tasks import Locomotion, Position, Push, Reach, Task, make_task_loss
 
 __all__ = [
     "Box",
@@ -27,6 +27,7 @@ __all__ = [
     "Material",
     "Part",
     "Polygon",
+    "Position",
     "Push",
     "Reach",
     "Robot",

@@ -121,7 +121,32 @@ class Push:
     sign = 1.0  # less is better
 
 
-Term = Locomotion | Reach | Push
+@dataclasses.dataclass(frozen=True)
+class Position:
+    """Bring the body's centroid along `axis` to the coordinate `target` (squared distance at
+    the end): walk to a point, along one axis, whatever the height."""
+
+    target: float
+    axis: int = 0
+    weight: float = 1.0
+
+    @property
+    def name(self) -> str:
+        return "position"
+
+    def validate(self, layout: Layout):
+        if not 0 <= self.axis < layout.dim:
+            raise LayoutError(f"Position axis {self.axis} does not exist in {layout.dim}D")
+        if not np.isfinite(self.target):
+            raise LayoutError(f"Position target {self.target} must be a finite coordinate")
+
+    def raw(self, layout, initial_state, final_state):
+        return (jnp.mean(final_state.x[:, self.axis]) - self.target) ** 2
+
+    sign = 1.0  # less is better
+
+
+Term = Locomotion | Reach | Push | Position
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,7 +160,11 @@ class Task:
         def __init__(self, terms: Term | Sequence[Term]) -> None: ...
 
     def __post_init__(self):
-        terms = (self.terms,) if isinstance(self.terms, (Locomotion, Reach, Push)) else tuple(self.terms)
+        terms = (
+            (self.terms,)
+            if isinstance(self.terms, (Locomotion, Reach, Push, Position))
+            else tuple(self.terms)
+        )
         if not terms:
             raise LayoutError("a task needs at least one term")
         names = [term.name for term in terms]

@@ -242,3 +242,8 @@ def test_a_run_without_a_latent_space_is_refused_naming_its_observer(tmp_path, c
     with pytest.raises(SystemExit):
         cli.main([str(tmp_path), "--goal", "walk:1"])
     assert "observer (kmeans) has no latent space" in capsys.readouterr().err
+    # The trained reference plans nothing: it replays any run's own controller.
+    out = tmp_path / "trained.json"
+    assert cli.main([str(tmp_path), "--goal", "walk:1", "--planner", "trained", "--out", str(out)]) == 0
+    entries = json.loads(out.read_text())["seeds"]
+    assert entries and all(np.isfinite(entry["displacement"]) for entry in entries)
