@@ -1,10 +1,14 @@
-"""The plan's 12 tests (plan.md, written before the runs) and its descriptive cells, from results/.
+"""The plan's tests (plan.md, written before the runs: 12 in the first round, 6 in the second)
+and its descriptive cells, from results/.
 
     python docs/assets/2026-12-07/latent-control/judge.py > docs/assets/2026-12-07/latent-control/judge.txt
 
 Measures per seed: walk goals, the displacement in the goal's direction (more is better); reach,
 the final |x - 0.37| (less is better). Paired t (two-sided) where both cells are the same run's
-seeds, Welch between the VAE's and PCA's runs; 90% t intervals; Holm over the 12.
+seeds, Welch between different runs (VAE and PCA; a run retrained for the goal); 90% t
+intervals; Holm over each family. results/<obs>/retrained-<goal>.json is `--planner trained` on
+the run trained for that goal (retrained/), results/sinusoid/trained-<goal>.json the same for the
+open-loop sinusoids trained for it.
 """
 
 import json
@@ -15,7 +19,17 @@ from scipy import stats
 
 HERE = pathlib.Path(__file__).parent / "results"
 GOALS = {"walk1": "walk:+1", "walk-1": "walk:-1", "reach0.37": "reach:0.37"}
-PLANNERS = ("trained", "rest", "latent_mpc", "latent_mpc_linear", "latent_lqr", "oracle_mpc")
+PLANNERS = (
+    "trained",
+    "rest",
+    "latent_mpc",
+    "latent_mpc_linear",
+    "latent_lqr",
+    "oracle_mpc",
+    "oracle_mpc_h10",
+    "retrained",
+)
+MODELLED = ("latent_mpc", "latent_mpc_linear", "latent_lqr", "oracle_mpc", "oracle_mpc_h10")
 
 
 def load(obs: str, planner: str, goal: str):
@@ -46,7 +60,7 @@ def holm(p):
 def cells() -> None:
     print("Cells: mean [90% CI] over seeds (walk: displacement, reach: final error)\n")
     print(f"{'observer':8s} {'planner':18s} " + " ".join(f"{g:>28s}" for g in GOALS.values()))
-    for obs in ("vae", "pca"):
+    for obs in ("vae", "pca", "sinusoid"):
         for planner in PLANNERS:
             row = [load(obs, planner, g) for g in GOALS]
             if all(r is None for r in row):
@@ -56,7 +70,7 @@ def cells() -> None:
     print("\nModel and cost (means over seeds and goals): readout R2, one-step position RMS under the")
     print("planner's own actions / the step's own RMS, compile s, wall s per control step and seed")
     for obs in ("vae", "pca"):
-        for planner in PLANNERS[2:]:
+        for planner in MODELLED:
             found = [load(obs, planner, g) for g in GOALS]
             found = [f[0] for f in found if f is not None]
             if not found:
@@ -71,6 +85,70 @@ def cells() -> None:
                 f"{obs:5s} {planner:18s} R2 {r2:.3f}  one-step {miss:.4f} / {step:.4f}  "
                 f"compile {compile_s:.0f} s  {wall * 1e3:.1f} ms"
             )
+
+
+def judge(title: str, family) -> None:
+    """Each test of `family` (name, cell a, cell b, paired), Holm over the family."""
+    rows = []
+    for name, a, b, paired in family:
+        x, y = load(*a), load(*b)
+        if x is None or y is None:
+            rows.append((name, None))
+            continue
+        x, y = x[1], y[1]
+        test = stats.ttest_rel(x, y) if paired else stats.ttest_ind(x, y, equal_var=False)
+        text = interval(x - y) if paired else f"{x.mean() - y.mean():+.3f} (Welch)"
+        rows.append((name, (text, test.pvalue)))
+    ready = [r for r in rows if r[1] is not None]
+    print(f"\n{title} ({len(ready)} of {len(rows)} computable), Holm over {len(rows)}:")
+    adjusted = holm([r[1][1] for r in ready] + [1.0] * (len(rows) - len(ready)))
+    for (name, (text, p)), a in zip(ready, adjusted, strict=False):
+        print(f"  {name:48s} {text:34s} p {p:.2g}  Holm {a:.2g}")
+    for name, value in rows:
+        if value is None:
+            print(f"  {name:48s} not run")
+
+
+def second_round() -> None:
+    family = [
+        (
+            "vae walk:-1: latent_mpc - retrained",
+            ("vae", "latent_mpc", "walk-1"),
+            ("vae", "retrained", "walk-1"),
+            False,
+        ),
+        (
+            "vae reach:0.37: latent_lqr - retrained",
+            ("vae", "latent_lqr", "reach0.37"),
+            ("vae", "retrained", "reach0.37"),
+            False,
+        ),
+        (
+            "vae walk:-1: oracle_mpc_h10 - latent_mpc",
+            ("vae", "oracle_mpc_h10", "walk-1"),
+            ("vae", "latent_mpc", "walk-1"),
+            True,
+        ),
+        (
+            "vae reach:0.37: oracle_mpc_h10 - latent_mpc",
+            ("vae", "oracle_mpc_h10", "reach0.37"),
+            ("vae", "latent_mpc", "reach0.37"),
+            True,
+        ),
+        (
+            "walk:-1: retrained vae - sinusoid",
+            ("vae", "retrained", "walk-1"),
+            ("sinusoid", "trained", "walk-1"),
+            False,
+        ),
+        (
+            "reach:0.37: retrained vae - sinusoid",
+            ("vae", "retrained", "reach0.37"),
+            ("sinusoid", "trained", "reach0.37"),
+            False,
+        ),
+    ]
+    judge("The second round's family", family)
 
 
 def tests() -> None:
@@ -104,27 +182,10 @@ def tests() -> None:
                 False,
             )
         )
-    rows = []
-    for name, a, b, paired in family:
-        x, y = load(*a), load(*b)
-        if x is None or y is None:
-            rows.append((name, None))
-            continue
-        x, y = x[1], y[1]
-        test = stats.ttest_rel(x, y) if paired else stats.ttest_ind(x, y, equal_var=False)
-        diff = x - y if paired else None
-        text = interval(diff) if paired else f"{x.mean() - y.mean():+.3f} (Welch)"
-        rows.append((name, (text, test.pvalue)))
-    ready = [r for r in rows if r[1] is not None]
-    print(f"\nThe plan's family ({len(ready)} of {len(rows)} computable), Holm over {len(rows)}:")
-    adjusted = holm([r[1][1] for r in ready] + [1.0] * (len(rows) - len(ready)))
-    for (name, (text, p)), a in zip(ready, adjusted, strict=False):
-        print(f"  {name:40s} {text:34s} p {p:.2g}  Holm {a:.2g}")
-    for name, value in rows:
-        if value is None:
-            print(f"  {name:40s} not run")
+    judge("The plan's family", family)
 
 
 if __name__ == "__main__":
     cells()
     tests()
+    second_round()
