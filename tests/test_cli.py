@@ -160,7 +160,7 @@ def test_the_papers_method_runs_in_a_preset_with_its_pictures(tmp_path):
         (
             "controller.kind=mpl",
             r"controller.kind='mpl': unknown controller; choose one of "
-            r"\['mlp', 'sinusoid', 'latent_mpc', 'latent_lqr'\]",
+            r"\['mlp', 'sinusoid', 'latent_mpc', 'latent_ilqr', 'latent_lqr'\]",
         ),
         ("loop.schedule=oneshot", "expected one of \\[alternating, one_shot, simultaneous\\]"),
         ("robot.module=no_such_module", "robot.module='no_such_module' could not be imported"),

@@ -1,4 +1,4 @@
-"""The latent planners (`latent_mpc`, `latent_lqr`; `litl.latent.planning`): listed under
+"""The latent planners (`latent_mpc`, `latent_ilqr`, `latent_lqr`; `litl.latent.planning`): listed under
 `controller=` with their settings, and run on a trained run by `python -m litl.latent.control`.
 
 They plan with a latent model fitted on a trained run's replay buffer, so Algorithm 1 does not
@@ -9,7 +9,7 @@ runs, with the command that does use them (`Config.check`, the ``plans`` trait).
 from __future__ import annotations
 
 from litl.controllers.interface import Controller, ControllerContext
-from litl.latent.planning import LQRSettings, MPCSettings
+from litl.latent.planning import ILQRSettings, LQRSettings, MPCSettings
 from litl.settings import SettingsError
 
 USAGE = (
@@ -29,6 +29,10 @@ def refusal(name: str) -> SettingsError:
 
 def latent_mpc(robot, settings: MPCSettings, context: ControllerContext) -> Controller:
     raise refusal("latent_mpc")
+
+
+def latent_ilqr(robot, settings: ILQRSettings, context: ControllerContext) -> Controller:
+    raise refusal("latent_ilqr")
 
 
 def latent_lqr(robot, settings: LQRSettings, context: ControllerContext) -> Controller:

@@ -11,7 +11,8 @@ and its observer) it fits, per seed, a `litl.latent.model.LatentModel` (the dyna
 `loop.dynamics`' settings, on every transition, and the velocity readout), then runs one episode
 of the robot (its co-designed body) in `litl.envs` under the planner, every seed vmapped in one
 jit-compiled program. Planners (`controller=` names, `litl.latent.planning`): ``latent_mpc``
-(shooting MPC through the MLP model; `--set model=linear` for the linear one), ``latent_lqr``
+(shooting MPC through the MLP model; `--set model=linear` for the linear one), ``latent_ilqr``
+(the same cost minimized by iLQR), ``latent_lqr``
 (reach goals only), and three references: ``trained`` (the run's own controller, which was
 trained for its own task, simulated as the run simulated it), ``rest`` (no actuation) and
 ``oracle_mpc`` (the same MPC, `latent_mpc`'s settings, planning through the simulator itself).
@@ -340,7 +341,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("run_dir", type=pathlib.Path)
     parser.add_argument("--goal", required=True, help="reach:<x position> or walk:<+1 or -1>")
-    parser.add_argument("--planner", default="latent_mpc", help="latent_mpc, latent_lqr, trained or rest")
+    parser.add_argument(
+        "--planner",
+        default="latent_mpc",
+        help="latent_mpc, latent_ilqr, latent_lqr, trained, rest or oracle_mpc",
+    )
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a planner setting")
     parser.add_argument("--seeds", type=lambda s: [int(x) for x in s.split(",")], default=None)
     parser.add_argument("--out", type=pathlib.Path, default=None)

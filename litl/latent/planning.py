@@ -1,4 +1,4 @@
-"""Planning in the observer's latent space: model-predictive control by shooting, and LQR.
+"""Planning in the observer's latent space: model-predictive control by shooting or iLQR, and LQR.
 
 Both planners act on a trained run's robot through `litl.envs` (one environment step is one
 control step: the action held for `loop.snapshot_stride` simulation steps, the step the latent
@@ -20,7 +20,9 @@ shifted by one step; `control` re-plans every `replan_every` control steps insid
 `lax.scan` (no Python loop per control step). `lqr_gains` steers the linear model augmented with
 the position, s = (z, x): x' = x + Δ (Wᵀ(A z + B a + c) + b)[axis], an affine system, to
 (z_rest, value) by `litl.latent.lqr.solve`, applied as a receding horizon (the first gain at every
-step). The count of model evaluations per control step is part of the result. With `oracle`,
+step). `ilqr_step` minimizes the shooting cost by iLQR (`litl.latent.ilqr`) on s = (z, x)
+instead, re-planned and warm-started the same way. The count of model evaluations per control
+step is part of the result. With `oracle`,
 the same MPC plans through the simulator itself (`true_plan_cost`): the reference that says
 what the held actions can do at all, at H (iterations + 1) · hold simulation steps per control
 step, each differentiated.
@@ -150,6 +152,40 @@ class LQRSettings(Settings):
         self._positive_numbers("latent_cost", "stop", zero=True)
 
 
+@dataclasses.dataclass(frozen=True)
+class ILQRSettings(Settings):
+    """Receding-horizon iLQR through the latent model (`controller=latent_ilqr`,
+    `litl.latent.ilqr`): the same cost as `latent_mpc` (reach and walk goals), minimized over the
+    plan's tanh logits by iLQR on the position-augmented state s = (z, x) instead of Adam steps.
+
+    Attributes:
+      horizon: H, control steps planned ahead.
+      iterations: iLQR iterations at each re-planning (each a backward pass and a line search
+        over `litl.latent.ilqr.STEPS`).
+      replan_every: control steps between re-plannings (1: every step).
+      action_cost: weight of mean(a²) in the cost.
+      stop: reach goals: weight of the predicted final speed's term.
+      regularization: the floor of Q_uu's eigenvalues.
+      model: the latent model planned through, ``mlp`` or ``linear``.
+    """
+
+    KEY = "controller.latent_ilqr"
+    horizon: int = 10
+    iterations: int = 5
+    replan_every: int = 1
+    action_cost: float = 1e-4
+    stop: float = 1.0
+    regularization: float = 1e-6
+    model: str = "mlp"
+
+    def check(self) -> None:
+        self._positive_ints("horizon", "iterations", "replan_every")
+        self._positive_numbers("regularization")
+        self._positive_numbers("action_cost", "stop", zero=True)
+        if self.model not in ("mlp", "linear"):
+            self._invalid("model", "must be mlp or linear")
+
+
 # ---------------------------------------------------------------------------------------------
 # Shooting MPC
 
@@ -222,6 +258,40 @@ def mpc_step(logits, cost, settings: MPCSettings):
     return plan, costs[0], cost(plan)
 
 
+def ilqr_step(logits, latent, position, model: LatentModel, goal: Goal, settings: ILQRSettings):
+    """(the improved plan, its cost before and after): `settings.iterations` iLQR iterations on
+    `plan_cost`'s objective, written in stage form on s = (z, x): per step (1/H)(x_t − value)²
+    (reach) and action_cost · mean(a_t²) / H; at the end the same position term and the stop term
+    (reach), or −sign · (x_H − x_0) / (H Δ) (walk). The first step's position term is a constant
+    and left out."""
+    from litl.latent.ilqr import ilqr
+
+    horizon, dt = logits.shape[0], model.control_dt
+    duration = horizon * dt
+
+    def dynamics(s, u):
+        z = model.step(s[:-1], jnp.tanh(u))
+        return jnp.concatenate([z, (s[-1] + dt * model.velocity(z)[goal.axis])[None]])
+
+    def effort(u):
+        return settings.action_cost * jnp.mean(jnp.tanh(u) ** 2) / horizon
+
+    if goal.kind == "reach":
+        stage = lambda s, u, t: jnp.where(t > 0, (s[-1] - goal.value) ** 2 / horizon, 0.0) + effort(u)
+
+        def final(s):
+            speed = jnp.sum(model.velocity(s[:-1]) ** 2)
+            return (s[-1] - goal.value) ** 2 / horizon + settings.stop * duration**2 * speed
+
+    else:
+        stage = lambda s, u, t: effort(u)
+        final = lambda s: -jnp.sign(goal.value) * (s[-1] - position) / duration
+    initial = jnp.concatenate([latent, position[None]])
+    better, _, _ = ilqr(dynamics, stage, final, initial, logits, settings.iterations, settings.regularization)
+    cost = lambda u: plan_cost(u, latent, position, model, goal, settings)[0]
+    return better, cost(logits), cost(better)
+
+
 def shift(plan):
     """The warm start for the next control step: the plan without its first action, its last
     action repeated."""
@@ -287,7 +357,10 @@ def _policy(env, env_params, model: LatentModel, goal: Goal, settings, key, rest
                 cost = lambda u: plan_cost(u, obs[:r], where(state), model, goal, settings)[0]
 
             def replan(plan):
-                better, _, after = mpc_step(plan, cost, settings)
+                if isinstance(settings, ILQRSettings):
+                    better, _, after = ilqr_step(plan, obs[:r], where(state), model, goal, settings)
+                else:
+                    better, _, after = mpc_step(plan, cost, settings)
                 return better, after
 
             replans = t % every == 0
@@ -360,10 +433,16 @@ def control(
 
 def model_steps(settings) -> float:
     """Model evaluations (forward passes) of one control step's planning: H (iterations + 1) per
-    re-planning for MPC (its gradients add about twice that), 0 for LQR (solved once per
+    re-planning for MPC (its gradients add about twice that); for iLQR H (1 + iterations (1 +
+    line-search steps)) forward passes plus H · iterations Jacobians; 0 for LQR (solved once per
     episode: `horizon` Riccati steps)."""
     if isinstance(settings, MPCSettings):
         return settings.horizon * (settings.iterations + 1) / settings.replan_every
+    if isinstance(settings, ILQRSettings):
+        from litl.latent.ilqr import STEPS
+
+        passes = 1 + settings.iterations * (1 + len(STEPS))
+        return settings.horizon * passes / settings.replan_every
     return 0.0
 
 
@@ -375,4 +454,4 @@ def first_nonfinite(nonfinite) -> int | None:
     return int(steps[0]) if steps.size else None
 
 
-PLANNERS: dict[str, Any] = {"latent_mpc": MPCSettings, "latent_lqr": LQRSettings}
+PLANNERS: dict[str, Any] = {"latent_mpc": MPCSettings, "latent_ilqr": ILQRSettings, "latent_lqr": LQRSettings}

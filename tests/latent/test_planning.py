@@ -17,10 +17,12 @@ from litl.latent.model import LatentModel, fit_readout
 from litl.latent.planning import (
     Goal,
     GoalError,
+    ILQRSettings,
     LQRSettings,
     MPCSettings,
     augmented_problem,
     control,
+    ilqr_step,
     mpc_step,
     plan_cost,
     true_plan_cost,
@@ -76,6 +78,34 @@ def test_mpc_brings_an_integrator_to_its_target_and_stops_it_there():
     _, (positions, latents) = plan_cost(plan, jnp.zeros(2), 0.0, model, goal, settings)
     assert abs(float(positions[-1]) - 0.5) < 0.02
     assert abs(float(latents[-1][0])) < 0.05  # its speed at the end (it peaks near 1)
+
+
+@pytest.mark.parametrize("model", [integrator(), random_mlp(jax.random.key(3), r=2, dtype=jnp.float32)])
+def test_ilqr_lowers_the_shooting_cost_it_shares_with_mpc(model):
+    goal, settings = Goal("reach", 0.5), ILQRSettings(horizon=15, iterations=10, action_cost=0.0)
+    start = jnp.zeros((15, 2))
+    plan, before, after = jax.jit(
+        lambda u: ilqr_step(u, jnp.zeros(2), jnp.asarray(0.0), model, goal, settings)
+    )(start)
+    cost = lambda u: plan_cost(u, jnp.zeros(2), 0.0, model, goal, settings)[0]
+    chex.assert_trees_all_close((before, after), (cost(start), cost(plan)), rtol=1e-5)
+    assert float(after) < float(before)
+
+
+def test_ilqr_brings_an_integrator_to_its_target_and_stops_it_there_and_walks_either_way():
+    model, settings = integrator(), ILQRSettings(horizon=15, iterations=20, action_cost=0.0)
+    plan, before, after = ilqr_step(
+        jnp.zeros((15, 2)), jnp.zeros(2), jnp.asarray(0.0), model, Goal("reach", 0.5), settings
+    )
+    assert after < 0.15 * before
+    _, (positions, latents) = plan_cost(plan, jnp.zeros(2), 0.0, model, Goal("reach", 0.5), settings)
+    assert abs(float(positions[-1]) - 0.5) < 0.02
+    assert abs(float(latents[-1][0])) < 0.05
+    for direction in (1.0, -1.0):
+        goal = Goal("walk", direction)
+        plan, _, _ = ilqr_step(jnp.zeros((15, 2)), jnp.zeros(2), jnp.asarray(0.0), model, goal, settings)
+        _, (positions, _) = plan_cost(plan, jnp.zeros(2), 0.0, model, goal, settings)
+        assert direction * float(positions[-1]) > 0.5  # near full speed (1 per step of 0.1) that way
 
 
 def test_the_augmented_lqr_problem_moves_the_position_as_the_shooting_cost_does():
@@ -139,7 +169,10 @@ def _obs_model(env, env_params) -> LatentModel:
 @pytest.mark.parametrize(
     "robot, dx, steps", [("biped", 1 / 32, 3), pytest.param("quadruped", 1 / 16, 2, marks=pytest.mark.slow)]
 )
-@pytest.mark.parametrize("settings", [MPCSettings(horizon=3, iterations=2), LQRSettings(horizon=3)])
+@pytest.mark.parametrize(
+    "settings",
+    [MPCSettings(horizon=3, iterations=2), ILQRSettings(horizon=3, iterations=2), LQRSettings(horizon=3)],
+)
 def test_a_planner_runs_an_episode_in_the_environment_in_2d_and_3d(robot, dx, steps, settings):
     env, env_params = litl.envs.make(robot, hold=4, dx=dx)
     model = _obs_model(env, env_params)
@@ -183,11 +216,13 @@ def trained_run(tmp_path_factory):
     return run_dir
 
 
-@pytest.mark.parametrize("planner", ["latent_mpc", "latent_lqr", "trained", "rest", "oracle_mpc"])
+@pytest.mark.parametrize(
+    "planner", ["latent_mpc", "latent_ilqr", "latent_lqr", "trained", "rest", "oracle_mpc"]
+)
 def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, planner, capsys):
     out = tmp_path / "out.json"
     arguments = [str(trained_run), "--goal", "reach:0.6", "--planner", planner, "--out", str(out)]
-    if planner in ("latent_mpc", "oracle_mpc"):
+    if planner in ("latent_mpc", "latent_ilqr", "oracle_mpc"):
         arguments += ["--set", "horizon=3", "--set", "iterations=2"]
     if planner == "latent_mpc":
         arguments += ["--animate"]
@@ -202,6 +237,8 @@ def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, p
     if planner in ("latent_mpc", "oracle_mpc"):
         assert summary["settings"]["horizon"] == 3
         assert summary["model_steps_per_control_step"] == 3 * 3
+    if planner == "latent_ilqr":  # 3 steps x (1 rollout + 2 iterations x (1 + 6 line-search rollouts))
+        assert summary["model_steps_per_control_step"] == 3 * (1 + 2 * 7)
     if planner == "oracle_mpc":  # 3 plans of 3 control steps of 10 simulation steps
         assert summary["sim_steps_per_control_step"] == 3 * 3 * 10
     assert "seed 0: final" in capsys.readouterr().out
