@@ -15,10 +15,11 @@ current controls out, takes f's Jacobians and ℓ's gradients and Hessians along
 
 with Q_uu's eigenvalues clipped from below at a floor (so that a nonconvex model gives a descent
 direction; the floor starts at `regularization`, rises tenfold after an iteration that found
-nothing cheaper and falls tenfold, not below `regularization`, after one that did), then tries the new controls u_t + α k_t + K_t (ŝ_t − s_t) for every α of
-`steps` at once (vmapped) and keeps the cheapest, or the current controls where none is cheaper:
-the cost never rises. On linear dynamics with a quadratic cost the first iteration at α = 1 is
-the LQR solution (`litl.latent.lqr`), which is what tests/latent/test_ilqr.py checks.
+nothing cheaper and falls tenfold, not below `regularization`, after one that did), then tries
+the new controls u_t + α k_t + K_t (ŝ_t − s_t) for every α of `steps` at once (vmapped) and
+keeps the cheapest, or the current controls where none is cheaper: the cost never rises. On
+linear dynamics with a quadratic cost the first iteration at α = 1 is the LQR solution
+(`litl.latent.lqr`), which is what tests/latent/test_ilqr.py checks.
 
 `ilqr` is jittable and vmappable with `iterations` and `steps` static; bounded controls are the
 caller's to parametrize (the latent planner plans tanh logits, as its shooting MPC does).
