@@ -25,11 +25,12 @@ PLANNERS = (
     "latent_mpc",
     "latent_mpc_linear",
     "latent_lqr",
+    "latent_ilqr",
     "oracle_mpc",
     "oracle_mpc_h10",
     "retrained",
 )
-MODELLED = ("latent_mpc", "latent_mpc_linear", "latent_lqr", "oracle_mpc", "oracle_mpc_h10")
+MODELLED = ("latent_mpc", "latent_mpc_linear", "latent_lqr", "latent_ilqr", "oracle_mpc", "oracle_mpc_h10")
 
 
 def load(obs: str, planner: str, goal: str):
@@ -151,6 +152,20 @@ def second_round() -> None:
     judge("The second round's family", family)
 
 
+def third_round() -> None:
+    family = [
+        (
+            f"{obs} {GOALS[goal]}: latent_ilqr - latent_mpc",
+            (obs, "latent_ilqr", goal),
+            (obs, "latent_mpc", goal),
+            True,
+        )
+        for goal in ("walk-1", "reach0.37")
+        for obs in ("vae", "pca")
+    ]
+    judge("The third round's family", family)
+
+
 def tests() -> None:
     family = []
     for goal in ("walk-1", "reach0.37"):
@@ -189,3 +204,4 @@ if __name__ == "__main__":
     cells()
     tests()
     second_round()
+    third_round()
