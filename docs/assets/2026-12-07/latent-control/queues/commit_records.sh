@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# copy one ended run's records into main and commit only that path: commit_records.sh SRC DEST MSG
+SRC=$1; DEST=/work/main/$2; MSG=$3
+mkdir -p "$DEST"
+for f in run.json final.json learning.jsonl; do [ -f "$SRC/$f" ] && cp "$SRC/$f" "$DEST/"; done
+[ -f "$SRC/metrics.jsonl" ] && gzip -9 -n -c "$SRC/metrics.jsonl" > "$DEST/metrics.jsonl.gz"
+cd /work/main
+for i in 1 2 3 4 5 6; do
+  git add -- "$2" && git commit -q -m "$MSG" -- "$2" && break
+  sleep 7
+done
