@@ -171,6 +171,7 @@ def _task_term(robot: Robot, task: TaskConfig):
             f"task.axis={task.axis}: {robot.name} is {dim}D (axes 0 to {dim - 1})", "task.axis"
         )
     if task.kind == TaskKind.position:
+        assert task.target is not None  # TaskConfig.check refuses task=position without one
         size = robot.config.grid_shape[task.axis] * robot.config.dx
         if not 0 < task.target < size:
             raise SettingsError(

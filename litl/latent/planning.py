@@ -190,7 +190,9 @@ class ILQRSettings(Settings):
 # Shooting MPC
 
 
-def goal_cost(positions, start, final_velocity, actions, duration, goal: Goal, settings: MPCSettings):
+def goal_cost(
+    positions, start, final_velocity, actions, duration, goal: Goal, settings: MPCSettings | ILQRSettings
+):
     """() a plan's cost (the module docstring's) from its positions (H,) along the goal's axis,
     the start's, the velocity (d,) at its end, its actions (H, m) and its duration (s)."""
     effort = settings.action_cost * jnp.mean(actions**2)
@@ -200,7 +202,7 @@ def goal_cost(positions, start, final_velocity, actions, duration, goal: Goal, s
     return -jnp.sign(goal.value) * (positions[-1] - start) / duration + effort
 
 
-def plan_cost(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings):
+def plan_cost(logits, latent, position, model: LatentModel, goal: Goal, settings: MPCSettings | ILQRSettings):
     """() the cost of the plan `logits` (H, m) through the latent model from latent z (r,) and
     position x (), and the predicted (positions (H,), latents (H, r))."""
     actions = jnp.tanh(logits)
