@@ -5,6 +5,7 @@ its observer's latent space.
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --planner latent_lqr
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --set horizon=20 --set iterations=50
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --planner trained  # the run's own MLP
+    python -m litl.latent.control RUN_DIR --goal reach:0.6 --control-steps 64  # twice the run's 1 s
 
 From the run's newest checkpoint (its replay buffer, with the actions recorded between snapshots,
 and its observer) it fits, per seed, a `litl.latent.model.LatentModel` (the dynamics model of
@@ -20,7 +21,8 @@ trained for its own task, simulated as the run simulated it), ``rest`` (no actua
 Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`; with `--animate` also the first
 chosen seed's episode as a .gif beside it): per seed the centroid along the
 goal's axis at every control step, the final position, the goal's error (reach: |x_T − target|;
-walk: the displacement in the goal's direction), the fit's readout R², the planning's model
+walk: the displacement in the goal's direction), the speed along the axis over the last control
+step (`final_speed`: near 0 where a reach ended at rest), the fit's readout R², the planning's model
 evaluations per control step, and the wall time (compile apart). A run whose observer has no
 latent space, or whose buffer holds no actions, is refused, naming it; so is a reach target outside
 the domain; a non-finite plan is named with its seed and control step (exit status 1).
@@ -105,12 +107,20 @@ def load(run_dir: pathlib.Path, latent: bool = True):
 
 
 def run(
-    run_dir, goal: str, planner: str = "latent_mpc", overrides=(), seeds=None, out=None, animate=False
+    run_dir,
+    goal: str,
+    planner: str = "latent_mpc",
+    overrides=(),
+    seeds=None,
+    out=None,
+    animate=False,
+    control_steps: int | None = None,
 ) -> dict:
     """Plan toward `goal` in every seed of the run (see the module docstring); the summary
     written to `out` (its ``failures`` name the seeds whose plans were not finite); `animate`:
     also the first chosen seed's episode as a .gif beside it (not for ``trained``: use
-    `python -m litl.replay`)."""
+    `python -m litl.replay`); `control_steps`: the episode's length (None: the run's rollout's;
+    longer shows whether a reach ends at rest; not for ``trained``, which replays the run's)."""
     import jax
     import jax.numpy as jnp
 
@@ -119,6 +129,14 @@ def run(
     run_dir = pathlib.Path(run_dir)
     if planner not in (*PLANNERS, *REFERENCES):
         raise ControlError(f"--planner {planner!r}: choose one of {(*PLANNERS, *REFERENCES)}")
+    if control_steps is not None and (
+        isinstance(control_steps, bool) or not isinstance(control_steps, int) or control_steps < 1
+    ):
+        raise ControlError(f"--control-steps {control_steps!r}: a positive number of control steps")
+    if control_steps is not None and planner == "trained":
+        raise ControlError(
+            "--control-steps: the trained reference replays the run's own rollout; leave it out"
+        )
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
     robot, config, algorithm, all_seeds, state = load(run_dir, latent=planner != "trained")
@@ -128,7 +146,7 @@ def run(
     if missing:
         raise ControlError(f"--seeds {missing}: the run has seeds {all_seeds}")
     state = jax.tree.map(lambda leaf: leaf[jnp.asarray([all_seeds.index(s) for s in chosen])], state)
-    episode = Episode(robot, config, algorithm, parsed, planner, settings)
+    episode = Episode(robot, config, algorithm, parsed, planner, settings, control_steps)
     if planner == "trained":
         results, fits, times = _trained(robot, algorithm, state, episode.stride, parsed.axis), None, {}
     else:
@@ -168,6 +186,7 @@ class Episode:
     goal: Any
     planner: str
     settings: Any
+    steps: int | None = None  # control steps of the episode; None: the run's rollout's
 
     @property
     def stride(self) -> int:
@@ -176,7 +195,7 @@ class Episode:
 
     @property
     def control_steps(self) -> int:
-        return self.algorithm.steps // self.stride
+        return self.steps if self.steps is not None else self.algorithm.steps // self.stride
 
     def program(self, state, chosen):
         """(the jitted program of every seed, vmapped: fit, then the episode; its arguments)."""
@@ -265,7 +284,7 @@ def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
         "failures": [],
     }
     for i, seed in enumerate(chosen):
-        entry = _seed_entry(goal, i, seed, results, fits)
+        entry = _seed_entry(goal, i, seed, results, fits, summary["control_dt"])
         summary["seeds"].append(entry)
         if entry.get("first_nonfinite_step") is not None:
             step = entry["first_nonfinite_step"]
@@ -275,7 +294,7 @@ def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
     return summary
 
 
-def _seed_entry(goal, i: int, seed: int, results, fits) -> dict:
+def _seed_entry(goal, i: int, seed: int, results, fits, control_dt: float) -> dict:
     import numpy as np
 
     from litl.latent.planning import first_nonfinite
@@ -286,6 +305,8 @@ def _seed_entry(goal, i: int, seed: int, results, fits) -> dict:
         "start": float(track[0]),
         "final": float(track[-1]),
         "positions": [round(float(x), 6) for x in track],
+        # along the goal's axis over the last control step: near 0 where a reach ended at rest
+        "final_speed": float((track[-1] - track[-2]) / control_dt),
     }
     if goal.kind == "reach":
         entry["error"] = abs(float(track[-1]) - goal.value)
@@ -350,13 +371,25 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--seeds", type=lambda s: [int(x) for x in s.split(",")], default=None)
     parser.add_argument("--out", type=pathlib.Path, default=None)
     parser.add_argument("--animate", action="store_true", help="the first seed's episode as a .gif")
+    parser.add_argument(
+        "--control-steps", type=int, default=None, help="the episode's length (default: the run's rollout's)"
+    )
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with exit_on_user_error("python -m litl.latent.control", os_errors=True):
-        summary = run(args.run_dir, args.goal, args.planner, args.set, args.seeds, args.out, args.animate)
+        summary = run(
+            args.run_dir,
+            args.goal,
+            args.planner,
+            args.set,
+            args.seeds,
+            args.out,
+            args.animate,
+            args.control_steps,
+        )
     for entry in summary["seeds"]:
         what = (
             f"error {entry['error']:.4f} (from {entry['start_error']:.4f})"

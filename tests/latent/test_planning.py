@@ -244,6 +244,19 @@ def test_a_trained_run_is_steered_from_the_command_line(trained_run, tmp_path, p
     assert "seed 0: final" in capsys.readouterr().out
 
 
+def test_an_episode_runs_longer_than_the_run_and_says_how_fast_it_ends(trained_run, tmp_path):
+    out = tmp_path / "long.json"
+    arguments = ["--goal", "reach:0.6", "--planner", "rest", "--control-steps", "7", "--out", str(out)]
+    assert cli.main([str(trained_run), *arguments]) == 0
+    summary = json.loads(out.read_text())
+    assert summary["control_steps"] == 7
+    for entry in summary["seeds"]:
+        assert len(entry["positions"]) == 8
+        speed = (entry["positions"][-1] - entry["positions"][-2]) / summary["control_dt"]
+        # the positions are written rounded to 1e-6
+        assert entry["final_speed"] == pytest.approx(speed, abs=2e-6 / summary["control_dt"])
+
+
 def test_the_trained_reference_ends_where_the_run_recorded_its_distance(trained_run, tmp_path):
     out = tmp_path / "trained.json"
     cli.main([str(trained_run), "--goal", "walk:1", "--planner", "trained", "--out", str(out)])
@@ -259,6 +272,11 @@ def test_the_trained_reference_ends_where_the_run_recorded_its_distance(trained_
         (["--goal", "walk:1", "--planner", "ilqr"], "choose one of"),
         (["--goal", "walk:1", "--set", "depth=3"], "KEY one of"),
         (["--goal", "walk:1", "--seeds", "7"], "the run has seeds"),
+        (["--goal", "walk:1", "--control-steps", "0"], "a positive number of control steps"),
+        (
+            ["--goal", "walk:1", "--planner", "trained", "--control-steps", "8"],
+            "replays the run's own rollout",
+        ),
     ],
 )
 def test_bad_requests_are_refused_before_anything_is_written(
