@@ -39,7 +39,7 @@ def load(obs: str, planner: str, goal: str):
         return None
     summary = json.loads(path.read_text())
     seeds = sorted(summary["seeds"], key=lambda s: s["seed"])
-    key = "error" if goal.startswith("reach") else "displacement"
+    key = "error" if goal.startswith("reach") else "displacement"  # reach0.37-2s too
     return summary, np.array([s[key] for s in seeds])
 
 
@@ -166,6 +166,33 @@ def third_round() -> None:
     judge("The third round's family", family)
 
 
+def fourth_round() -> None:
+    print("\nFourth round: reach:0.37 over 2 s (64 control steps); error mean [90% CI], seeds within")
+    print("0.025, seeds stopped (|final speed| < 0.02 per s), mean |final speed|")
+    for obs in ("vae", "pca"):
+        for planner in ("rest", "latent_lqr", "latent_mpc"):
+            found = load(obs, planner, "reach0.37-2s")
+            if found is None:
+                print(f"  {obs:5s} {planner:12s} not run")
+                continue
+            speeds = np.array([abs(s["final_speed"]) for s in found[0]["seeds"]])
+            errors = found[1]
+            print(
+                f"  {obs:5s} {planner:12s} {interval(errors)}  within {int(np.sum(errors < 0.025))}/10  "
+                f"stopped {int(np.sum(speeds < 0.02))}/10  speed {speeds.mean():.3f}"
+            )
+    family = [
+        (
+            f"{obs} reach:0.37 over 2 s: latent_lqr - rest",
+            (obs, "latent_lqr", "reach0.37-2s"),
+            (obs, "rest", "reach0.37-2s"),
+            True,
+        )
+        for obs in ("vae", "pca")
+    ]
+    judge("The fourth round's family", family)
+
+
 def tests() -> None:
     family = []
     for goal in ("walk-1", "reach0.37"):
@@ -205,3 +232,4 @@ if __name__ == "__main__":
     tests()
     second_round()
     third_round()
+    fourth_round()
