@@ -122,7 +122,16 @@ def main() -> None:
         print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
     if adjusted is None:
         print("\n(Holm needs all 10 tests: not adjusted yet)")
-    reference(get("biped vae", "all"), get("biped kmeans kept", "all"))
+    reference(
+        "biped", get("biped vae", "all"), get("biped kmeans kept", "all"), BEFORE / "vae", BEFORE / "kmeans"
+    )
+    reference(
+        "bunny",
+        get("bunny vae", "all"),
+        get("bunny kmeans", "all"),
+        BEFORE / "bunny" / "vae",
+        RECORDS / "bunny" / "kmeans",
+    )
 
 
 def last_record(path: pathlib.Path) -> dict:
@@ -142,20 +151,22 @@ def grayness(path: pathlib.Path) -> np.ndarray:
     return np.array([last[s]["geometry/grayness"] for s in sorted(last)])
 
 
-def reference(vae, kmeans) -> None:
-    """The addendum's family of 2: sep-CMA-ES (20x, design=all; one process per seed) against
-    litl VAE and litl k-means (kept clusters) under design=all, Welch two-sided, Holm over 2."""
-    folder = RECORDS / "biped" / "sep-cmaes-all"
+def reference(robot: str, vae, kmeans, vae_runs: pathlib.Path, kmeans_runs: pathlib.Path) -> None:
+    """An addendum's family of 2 (the biped's first, the bunny's second): sep-CMA-ES (20x,
+    design=all; one process per seed) against litl VAE and litl k-means (kept clusters) under
+    design=all, Welch two-sided, Holm over 2; grayness beside them."""
+    folder = RECORDS / robot / "sep-cmaes-all"
     seeds = sorted(folder.glob("seed*"), key=lambda p: int(p.name[4:]))
     ended = [p for p in seeds if (p / "final.json").exists()]
     cmaes = np.array([json.loads((p / "final.json").read_text())[0]["task_loss"] for p in ended])
     gray = np.array([last_record(p)["geometry/grayness"] for p in ended])
-    print(
-        f"\nsep-CMA-ES (20x) design=all, {len(ended)} seeds: per seed " + ", ".join(f"{v:.3f}" for v in cmaes)
-    )
-    print(f"  mean {interval(cmaes)}; grayness {interval(gray)}")
-    print(f"  litl VAE grayness {interval(grayness(BEFORE / 'vae' / 'all'))}")
-    print(f"  litl k-means (kept) grayness {interval(grayness(BEFORE / 'kmeans' / 'all'))}")
+    names = ", ".join(p.name for p in ended) or "none"
+    print(f"\n{robot}: sep-CMA-ES (20x) design=all, {len(ended)} seeds ({names}): per seed ", end="")
+    print(", ".join(f"{v:.3f}" for v in cmaes))
+    if len(ended) >= 2:
+        print(f"  mean {interval(cmaes)}; grayness {interval(gray)}")
+    print(f"  litl VAE {interval(vae)}, grayness {interval(grayness(vae_runs / 'all'))}")
+    print(f"  litl k-means (kept) {interval(kmeans)}, grayness {interval(grayness(kmeans_runs / 'all'))}")
     if len(ended) < 10:
         print(f"  {len(ended)} of 10 seeds ended: no verdict (the addendum's rule)")
         return
