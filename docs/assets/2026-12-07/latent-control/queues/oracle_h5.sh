@@ -1,15 +1,18 @@
 #!/usr/bin/env bash
+# As it ran on 2026-12-07, WORK being the folder that held the checkout (main/), the worktrees and
+# the outputs (out/); set WORK to run it elsewhere.
+WORK=${WORK:?set WORK to the folder holding main/, the worktrees and out/}
 # The oracle's cells (VAE runs' bodies, seeds 0-9), each committed into main as it ends.
-cd /work/runs-oracle
-export PYTHONPATH=/work/runs-oracle XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+cd $WORK/runs-oracle
+export PYTHONPATH=$WORK/runs-oracle XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 REL=docs/assets/2026-12-07/latent-control/results/vae
 mkdir -p $REL
 for goal in walk:-1 reach:0.37 walk:1; do
   name=oracle_mpc-${goal/:/}
-  /work/main/.venv/bin/python -m litl.latent.control /work/out/dyn/vae --goal "$goal" --planner oracle_mpc \
+  $WORK/main/.venv/bin/python -m litl.latent.control $WORK/out/dyn/vae --goal "$goal" --planner oracle_mpc \
     --set horizon=5 --set iterations=10 --out "$PWD/$REL/$name.json" 2>&1 | grep -v absl | sed "s|$PWD/docs/assets/2026-12-07/latent-control/||" > "$REL/$name.txt"
   echo "$name rc=${PIPESTATUS[0]} $(date -u +%H:%M:%S)"
-  cp $REL/$name.json $REL/$name.txt /work/main/$REL/
-  (cd /work/main && for i in 1 2 3 4 5 6; do git add -- $REL/$name.json $REL/$name.txt && git commit -q -m "latent control: oracle_mpc $goal cell (VAE run bodies, seeds 0-9, horizon 5, 10 iterations, from 094fddb)" -- $REL/$name.json $REL/$name.txt && break; sleep 7; done)
+  cp $REL/$name.json $REL/$name.txt $WORK/main/$REL/
+  (cd $WORK/main && for i in 1 2 3 4 5 6; do git add -- $REL/$name.json $REL/$name.txt && git commit -q -m "latent control: oracle_mpc $goal cell (VAE run bodies, seeds 0-9, horizon 5, 10 iterations, from 094fddb)" -- $REL/$name.json $REL/$name.txt && break; sleep 7; done)
 done
 echo done
