@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import optax
 
 from litl.errors import UserError
+from litl.latent.ilqr import STEPS, ilqr
 from litl.latent.lqr import LQRProblem, solve
 from litl.latent.model import LatentModel, linear_part
 from litl.settings import Settings
@@ -266,8 +267,6 @@ def ilqr_step(logits, latent, position, model: LatentModel, goal: Goal, settings
     (reach) and action_cost · mean(a_t²) / H; at the end the same position term and the stop term
     (reach), or −sign · (x_H − x_0) / (H Δ) (walk). The first step's position term is a constant
     and left out."""
-    from litl.latent.ilqr import ilqr
-
     horizon, dt = logits.shape[0], model.control_dt
     duration = horizon * dt
 
@@ -441,8 +440,6 @@ def model_steps(settings) -> float:
     if isinstance(settings, MPCSettings):
         return settings.horizon * (settings.iterations + 1) / settings.replan_every
     if isinstance(settings, ILQRSettings):
-        from litl.latent.ilqr import STEPS
-
         passes = 1 + settings.iterations * (1 + len(STEPS))
         return settings.horizon * passes / settings.replan_every
     return 0.0
