@@ -178,7 +178,14 @@ def _task_term(robot: Robot, task: TaskConfig):
                 f"task.target={task.target}: outside the domain along axis {task.axis}, (0, {size:g})",
                 "task.target",
             )
-        return Position(target=float(task.target), axis=task.axis)
+        groups = robot.layout.groups
+        if task.group is not None and task.group not in groups:
+            raise SettingsError(
+                f"task.group={task.group}: {robot.name} has no such particle group "
+                f"(its groups: {sorted(groups) or 'none'})",
+                "task.group",
+            )
+        return Position(target=float(task.target), axis=task.axis, group=task.group)
     measure: Literal["distance", "velocity"] = "distance" if task.kind == TaskKind.locomotion else "velocity"
     return Locomotion(axis=task.axis, measure=measure, direction=float(task.direction))
 

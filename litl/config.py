@@ -208,6 +208,8 @@ class TaskConfig(Settings):
       direction: +1 or -1, the way locomotion and velocity count (-1: walk the other way).
       target: position's coordinate along `axis`, inside the domain [0, grid size * dx].
       axis: the axis locomotion, velocity and position count along (0: x).
+      group: position: the particle group whose centroid ends at `target` (the arm's ``tip``);
+        None: the whole body's.
     """
 
     KEY = "task"
@@ -215,6 +217,7 @@ class TaskConfig(Settings):
     direction: float = 1.0
     target: float | None = None
     axis: int = 0
+    group: str | None = None
 
     def check(self) -> None:
         kind = TaskKind(self.kind)
@@ -230,6 +233,10 @@ class TaskConfig(Settings):
             self._invalid("axis", "must be an axis index, 0 (x), 1 (y) or 2 (z, in 3D)")
         if self.axis != 0 and kind == TaskKind.default:
             self._invalid("axis", "applies to task=locomotion, velocity or position, not task=default")
+        if self.group is not None and kind != TaskKind.position:
+            self._invalid("group", f"applies to task=position, not task={kind.value}")
+        if self.group is not None and (not isinstance(self.group, str) or not self.group):
+            self._invalid("group", "must name one of the robot's particle groups, e.g. tip")
 
 
 # The simulator's particle-to-grid sums (`litl.sim.config.PARTICLE_TO_GRID`, spelled again here:

@@ -19,8 +19,9 @@ trained for its own task, simulated as the run simulated it), ``rest`` (no actua
 ``oracle_mpc`` (the same MPC, `latent_mpc`'s settings, planning through the simulator itself).
 
 Writes `RUN_DIR/control/<planner>-<goal>.json` (or `--out`; with `--animate` also the first
-chosen seed's episode as a .gif beside it): per seed the centroid along the
-goal's axis at every control step, the final position, the goal's error (reach: |x_T − target|;
+chosen seed's episode as a .gif beside it): per seed the position of the point the task steers
+(`Robot.task_point`: a walker's centroid, the arm's tip; `point` in the file) along the goal's
+axis at every control step, the final position, the goal's error (reach: |x_T − target|;
 walk: the displacement in the goal's direction), the speed along the axis over the last control
 step (`final_speed`: near 0 where a reach ended at rest), the fit's readout R², the planning's model
 evaluations per control step, and the wall time (compile apart). A run whose observer has no
@@ -247,10 +248,10 @@ class Episode:
 
         def still(carry, _):
             carry = env.step_env(key, carry, zero, params)[1]
-            return carry, (_centroid(env, carry)[goal.axis], env.robot.own(carry.sim).x)
+            return carry, (env.robot.task_point(carry.sim)[goal.axis], env.robot.own(carry.sim).x)
 
         _, (positions, particles) = jax.lax.scan(still, env_state, None, length=self.control_steps)
-        start = _centroid(env, env_state)[goal.axis][None]
+        start = env.robot.task_point(env_state.sim)[goal.axis][None]
         actions = jnp.zeros((self.control_steps, env.num_actions), dtype)
         return {
             "positions": jnp.concatenate([start, positions]),
@@ -269,6 +270,8 @@ def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
         "run_dir": pathlib.Path(run_dir).name,
         "planner": episode.planner,
         "goal": {"kind": goal.kind, "value": goal.value, "axis": goal.axis},
+        # what the goal moves: the task's group (the arm's tip) or the whole robot's centroid
+        "point": (episode.robot.task and episode.robot.task.point_group) or "centroid",
         "settings": dataclasses.asdict(settings) if settings is not None else None,
         "control_dt": episode.stride * episode.robot.config.dt,
         "control_steps": episode.control_steps,
@@ -326,22 +329,15 @@ def _seed_entry(goal, i: int, seed: int, results, fits, control_dt: float) -> di
     return entry
 
 
-def _centroid(env, env_state):
-    from litl.sim.rollout import centroid
-
-    return centroid(env.robot.own(env_state.sim))
-
-
 def _trained(robot, algorithm, state, stride: int, axis: int) -> dict:
-    """The run's own controller, simulated as the run simulated it: the centroid every `stride`
-    steps from the start."""
+    """The run's own controller, simulated as the run simulated it: the task point every
+    `stride` steps from the start."""
     import jax
     import jax.numpy as jnp
 
     from litl.sim import make_rollout
-    from litl.sim.rollout import centroid
 
-    observe = lambda s: centroid(robot.own(s))[axis]
+    observe = lambda s: robot.task_point(s)[axis]
     rollout = make_rollout(
         robot.config, robot.body(), algorithm.policy, algorithm.steps, field=algorithm.field, observe=observe
     )

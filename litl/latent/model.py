@@ -3,10 +3,11 @@
 A planner in the observer's latent space needs two things the observer alone does not give: how
 the latent moves under an action (a dynamics model, `litl.latent.dynamics`), and what the task
 cares about as a function of the latent. The latents are codes of the grid's velocity field, so
-what they hold of a walker's task is its velocity: the replay buffer keeps the robot's mean
-particle velocity beside every snapshot, and a ridge least-squares readout v ≈ Wᵀ z + b fitted on
-them (the VAE is trained with a linear momentum head for the same reason) turns a predicted
-latent trajectory into a predicted displacement, Δx = Σ_t control_dt · v(z_{t+1}).
+what they hold of a task is the velocity of the point it steers (`Robot.task_point`: a walker's
+centroid, the arm's tip): the replay buffer keeps that velocity beside every snapshot
+(`ReplayBuffer.point_velocities`), and a ridge least-squares readout v ≈ Wᵀ z + b fitted on them
+(the VAE is trained with a linear momentum head for a similar reason) turns a predicted latent
+trajectory into a predicted displacement, Δx = Σ_t control_dt · v(z_{t+1}).
 
 `fit_model(codec, params, buffer, key, settings, ...)` encodes one seed's buffer in the order its
 snapshots were stored (`encode_buffer`, shared with the in-loop measurement), fits the chosen
@@ -36,7 +37,8 @@ class Encoded:
       fields: (T, *window, d) the snapshots, oldest first (zero past `valid`).
       latents: (T, r) their latents (zero past `valid`).
       actions: (T, m) the action that led to each from the one before.
-      velocities: (T, d) the robot's mean particle velocity at each.
+      velocities: (T, d) the task point's velocity at each (`ReplayBuffer.point_velocities`: the
+        robot's mean particle velocity for a walker, the arm's tip's).
       links: (T,) bool, where (latents[t-1], actions[t], latents[t]) is a transition.
       valid: (T,) bool, the slots that hold snapshots.
     """
@@ -62,7 +64,7 @@ def encode_buffer(codec, params, buffer: ReplayBuffer) -> Encoded:
         fields=fields,
         latents=latents,
         actions=buffer.actions[order].astype(dtype),
-        velocities=jnp.where(valid[:, None], buffer.velocities[order].astype(dtype), 0),
+        velocities=jnp.where(valid[:, None], buffer.point_velocities[order].astype(dtype), 0),
         links=links,
         valid=valid,
     )
@@ -74,7 +76,7 @@ class LatentModel:
 
     Attributes:
       dynamics: a `LinearDynamics` or `MLPDynamics` (``step(z, a) -> z'``, one control step).
-      readout: (r, d) W of the velocity readout v(z) = Wᵀ z + b.
+      readout: (r, d) W of the task point's velocity readout v(z) = Wᵀ z + b.
       offset: (d,) its b.
       control_dt: seconds per control step (the snapshot stride times the simulation's dt).
     """
@@ -97,7 +99,7 @@ class LatentModel:
         return self.dynamics.step(latent, action)
 
     def velocity(self, latent):
-        """(d,) the robot's mean velocity read from the (r,) latent."""
+        """(d,) the task point's velocity read from the (r,) latent."""
         return latent @ self.readout + self.offset
 
 

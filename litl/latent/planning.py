@@ -2,13 +2,14 @@
 
 Both planners act on a trained run's robot through `litl.envs` (one environment step is one
 control step: the action held for `loop.snapshot_stride` simulation steps, the step the latent
-model was fitted on) and read the observer's latent z of the grid after each step and the robot's
-true centroid x. They plan with a `LatentModel` (`litl.latent.model`): z' = f(z, a) and the
+model was fitted on) and read the observer's latent z of the grid after each step and the true
+position x of the point the robot's task steers (`Robot.task_point`: a walker's centroid, the
+arm's tip). They plan with a `LatentModel` (`litl.latent.model`): z' = f(z, a) and the
 velocity readout v(z), so a plan's predicted position is x_t = x_0 + Σ_{s<=t} Δ v(z_s)[axis].
 
 Goals (`Goal`), goals the trained controller never saw:
 
-* ``reach``: bring the centroid to `value` along the axis and stop there. Cost of a plan of H
+* ``reach``: bring that point to `value` along the axis and stop there. Cost of a plan of H
   actions: (1/H) Σ_t (x_t − value)² + stop · (H Δ)² |v(z_H)|² + action_cost · mean(a²), in units
   of length².
 * ``walk``: walk in the direction sign(`value`) (+1: +x, −1: −x). Cost: −sign · (x_H − x_0) / (H Δ)
@@ -58,7 +59,7 @@ class Goal:
     Attributes:
       kind: ``"reach"`` or ``"walk"``.
       value: reach: the target position along `axis` (domain units); walk: the direction (+1, −1).
-      axis: which coordinate of the centroid (0: x).
+      axis: which coordinate of the task point (0: x).
     """
 
     kind: str
@@ -233,16 +234,15 @@ def true_plan_cost(logits, env, env_params, state, goal: Goal, settings: MPCSett
     last, positions = jax.lax.scan(forward, state, actions)
     positions = positions[:, goal.axis]
     duration = logits.shape[0] * env_params.hold * env.robot.config.dt
-    velocity = jnp.mean(env.robot.own(last.sim).v, axis=0)
+    velocity = env.robot.task_point_velocity(last.sim)
     start = _robot(env, state)[goal.axis]
     return goal_cost(positions, start, velocity, actions, duration, goal, settings)
 
 
 def _robot(env, state):
-    """(d,) the robot's centroid in an environment state."""
-    from litl.sim.rollout import centroid
-
-    return centroid(env.robot.own(state.sim))
+    """(d,) the point the robot's task steers in an environment state (`Robot.task_point`: its
+    centroid, or the arm's tip's)."""
+    return env.robot.task_point(state.sim)
 
 
 def mpc_step(logits, cost, settings: MPCSettings):
@@ -388,7 +388,7 @@ def control(
     (the model then only gives `predicted`).
 
     Returns:
-      positions (T + 1,) the centroid along the goal's axis from the start; predicted (T,) the
+      positions (T + 1,) the task point along the goal's axis from the start; predicted (T,) the
       model's position one control step after each action (from the true position and latent);
       particles (T, n, d) the robot's particles after each control step; actions (T, m);
       planned_cost (T,) the plan's cost after planning (MPC; NaN at steps that did not re-plan)

@@ -6,9 +6,11 @@ episodes finished and of metrics lines written by then. A process killed mid-sav
 temporary directory that orbax ignores; a complete checkpoint damaged later (a truncated file,
 lost metadata) is skipped on restore in favour of the previous one (two are kept).
 
-A checkpoint written before the replay buffer recorded actions (its buffer has no ``actions``)
-restores with zero actions and no transitions (`ReplayBufferWithoutActions.upgrade`): its
-snapshots still train the observer, and a latent dynamics model learns only from later rollouts.
+A checkpoint written by an earlier litl whose replay buffer lacks leaves added since
+(`litl.models.replay_buffer.ADDED_LATER`) restores upgraded (`replay_buffer.upgrade`): without
+``actions``, with zero actions and no transitions (its snapshots still train the observer, and a
+latent dynamics model learns only from later rollouts); without ``point_velocities``, with the
+robot's velocities in their place.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import orbax.checkpoint as ocp
 
 from litl.errors import UserError
 from litl.loop.progress import say
-from litl.models.replay_buffer import ReplayBuffer, ReplayBufferWithoutActions
+from litl.models.replay_buffer import ReplayBuffer, saved_layout, upgrade
 
 
 class CheckpointError(UserError, RuntimeError):
@@ -101,32 +103,32 @@ class Checkpoints:
 
     def _restore(self, step: int, template: dict) -> dict:
         """Checkpoint `step` read into host arrays shaped as `template`'s leaves (np.empty: no
-        memory touched), a buffer without actions upgraded to the template's."""
+        memory touched), an older litl's buffer upgraded to the template's."""
         state = template["state"]
-        without_actions = self._buffer_without_actions(step, state)
-        if without_actions:
-            template = {
-                **template,
-                "state": state.replace(buffer=ReplayBufferWithoutActions.like(state.buffer)),
-            }
+        older = self._older_buffer(step, state)
+        if older is not None:
+            template = {**template, "state": state.replace(buffer=older)}
         abstract = jax.tree.map(lambda leaf: np.empty(np.shape(leaf), leaf.dtype), template)
         item = self.manager.restore(step, args=ocp.args.StandardRestore(abstract))
-        if without_actions:
+        if older is not None:
             restored = item["state"]
-            item = {**item, "state": restored.replace(buffer=restored.buffer.upgrade(state.buffer))}
+            item = {**item, "state": restored.replace(buffer=upgrade(restored.buffer, state.buffer))}
         return item
 
-    def _buffer_without_actions(self, step: int, template_state) -> bool:
-        """Whether checkpoint `step` holds a replay buffer written before actions were recorded
-        (where `template_state` has a current `ReplayBuffer` as its ``buffer``). A checkpoint
-        whose metadata cannot be read is left to the plain restore, which reports it."""
+    def _older_buffer(self, step: int, template_state) -> dict | None:
+        """A template for checkpoint `step`'s replay buffer where an earlier litl wrote it with
+        fewer leaves (`replay_buffer.saved_layout`; `template_state` has a current `ReplayBuffer`
+        as its ``buffer``), else None. A checkpoint whose metadata cannot be read is left to the
+        plain restore, which reports it."""
         if not isinstance(getattr(template_state, "buffer", None), ReplayBuffer):
-            return False
+            return None
         try:
             buffer = self.manager.item_metadata(step).tree["state"]["buffer"]
         except Exception:  # damaged metadata: the restore below fails and says why
-            return False
-        return isinstance(buffer, dict) and "fields" in buffer and "actions" not in buffer
+            return None
+        if not isinstance(buffer, dict):
+            return None
+        return saved_layout(buffer.keys(), template_state.buffer)
 
     def close(self):
         self.manager.close()

@@ -140,6 +140,7 @@ class Optimization:
                 snapshots,
                 self.simulation.snapshot_velocities(trajectory),
                 self.simulation.snapshot_actions(trajectory),
+                self.simulation.snapshot_velocities(trajectory, point=True),
             )
         )
         recon = jnp.full((), jnp.nan, self.simulation.dtype)

@@ -69,6 +69,7 @@ class Retraining:
                     trajectory.snapshots,
                     simulation.snapshot_velocities(trajectory),
                     simulation.snapshot_actions(trajectory),
+                    simulation.snapshot_velocities(trajectory, point=True),
                 ),
                 state.buffer,
             )

@@ -86,6 +86,11 @@ class Simulation:
             return centroid
         return lambda state: centroid(self.robot.own(state))
 
+    def observe(self, state):
+        """(2, d) what a rollout records after every step: the robot's centroid, and the point
+        its task steers (`Robot.task_point`: the arm's tip; the centroid again for a walker)."""
+        return jnp.stack([self.centroid(state), self.robot.task_point(state)])
+
     @functools.cached_property
     def rollout(self):
         """One seed's rollout; the seeds run vmapped, so each gets its share of the budget."""
@@ -100,7 +105,7 @@ class Simulation:
             self.policy,
             self.steps,
             snapshot_stride=self.stride,
-            observe=self.centroid,
+            observe=self.observe,
             field=self.field,
             checkpoint_every=sim.checkpoint_every,
             memory_budget=budget,
@@ -122,17 +127,19 @@ class Simulation:
             # Snapshot k is the field after step (k + 1) * stride - 1, read by the policy together
             # with the state after that step: crop both around that state's centroid.
             stride = self.stride
-            centres = trajectory.observations[stride - 1 :: stride][: trajectory.snapshots.shape[0]]
+            centres = trajectory.observations[stride - 1 :: stride, 0][: trajectory.snapshots.shape[0]]
             trajectory = trajectory.replace(
                 snapshots=jax.vmap(self.window.crop)(trajectory.snapshots, centres)
             )
         return total, (components, trajectory)
 
-    def snapshot_velocities(self, trajectory):
-        """(n_snapshots, d) the robot's mean particle velocity at each snapshot, from the
-        centroids recorded before and after the step that produced it (x += dt v, so the
-        difference is exact for free particles)."""
-        centres = jnp.concatenate([self.centroid(self.scene.state)[None], trajectory.observations])
+    def snapshot_velocities(self, trajectory, point: bool = False):
+        """(n_snapshots, d) the robot's mean particle velocity at each snapshot (`point`: the
+        task point's, `observe`), from the positions recorded before and after the step that
+        produced it (x += dt v, so the difference is exact for free particles)."""
+        which = int(point)
+        start = self.observe(self.scene.state)[which]
+        centres = jnp.concatenate([start[None], trajectory.observations[:, which]])
         velocity = (centres[1:] - centres[:-1]) / self.scene.config.dt
         stride = self.stride
         return velocity[stride - 1 :: stride][: trajectory.snapshots.shape[0]]

@@ -36,6 +36,9 @@ class ReplayBuffer:
       fields: (capacity, *grid_shape, d) stored snapshots; slots outside the valid ones hold stale
         or zero data and must be masked (`valid_mask`).
       velocities: (capacity, d) the robot's mean particle velocity at each snapshot.
+      point_velocities: (capacity, d) the velocity of the point the task steers at each snapshot
+        (`litl.robots.Robot.task_point`: the arm's tip's centroid; for a walker the same as
+        `velocities`), what a latent planner's readout is fitted on (`litl.latent.model`).
       actions: (capacity, m) the mean actuation over the steps that led to each snapshot from its
         rollout's previous one (m actuators; m = 0 for a buffer that records none); zero where
         none was recorded.
@@ -48,6 +51,7 @@ class ReplayBuffer:
 
     fields: jnp.ndarray
     velocities: jnp.ndarray
+    point_velocities: jnp.ndarray
     actions: jnp.ndarray
     follows: jnp.ndarray
     count: jnp.ndarray
@@ -84,6 +88,7 @@ class ReplayBuffer:
         return cls(
             fields=jnp.zeros((capacity,) + grid_shape + (dim,), dtype),
             velocities=jnp.zeros((capacity, dim), dtype),
+            point_velocities=jnp.zeros((capacity, dim), dtype),
             actions=jnp.zeros((capacity, n_actions), dtype),
             follows=jnp.zeros((capacity,), bool),
             count=jnp.zeros((), jnp.int32),
@@ -115,7 +120,7 @@ def occupied_mean(snapshots) -> jnp.ndarray:
     return jnp.sum(jnp.where(occupied, snapshots, 0), axis=axes) / count
 
 
-def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> ReplayBuffer:
+def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None, point_velocities=None) -> ReplayBuffer:
     """Append k snapshots of one rollout, overwriting the oldest entries once the buffer is full.
 
     The result is the same as writing the snapshots one at a time: if k exceeds the capacity only
@@ -128,6 +133,8 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> Repla
         snapshots.
       actions: (k, m) the actuation that led to each snapshot from the previous one (see
         `ReplayBuffer.actions`); None: zeros, and these snapshots form no transitions.
+      point_velocities: (k, d) the task point's velocity at each (`ReplayBuffer.point_velocities`);
+        None: `velocities` (a task that steers the whole body).
 
     Returns:
       The buffer with count = min(count + k, capacity) and cursor advanced by k (mod capacity);
@@ -144,6 +151,11 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> Repla
         raise ValueError(
             f"velocities must have shape ({k}, {buffer.velocities.shape[1]}), one "
             f"per snapshot, got {velocities.shape}"
+        )
+    points = velocities if point_velocities is None else jnp.asarray(point_velocities, velocities.dtype)
+    if points.shape != velocities.shape:
+        raise ValueError(
+            f"point_velocities must have shape {velocities.shape}, one per snapshot, got {points.shape}"
         )
     m = buffer.n_actions
     if actions is None:
@@ -164,6 +176,7 @@ def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> Repla
     return buffer.replace(
         fields=buffer.fields.at[slots].set(kept, unique_indices=True),
         velocities=buffer.velocities.at[slots].set(velocities[skipped:], unique_indices=True),
+        point_velocities=buffer.point_velocities.at[slots].set(points[skipped:], unique_indices=True),
         actions=buffer.actions.at[slots].set(actions[skipped:], unique_indices=True),
         follows=buffer.follows.at[slots].set(follows[skipped:], unique_indices=True),
         count=jnp.minimum(buffer.count + k, capacity).astype(jnp.int32),
@@ -176,6 +189,7 @@ def clear(buffer: ReplayBuffer) -> ReplayBuffer:
     return buffer.replace(
         fields=jnp.zeros_like(buffer.fields),
         velocities=jnp.zeros_like(buffer.velocities),
+        point_velocities=jnp.zeros_like(buffer.point_velocities),
         actions=jnp.zeros_like(buffer.actions),
         follows=jnp.zeros_like(buffer.follows),
         count=jnp.zeros_like(buffer.count),
@@ -183,13 +197,15 @@ def clear(buffer: ReplayBuffer) -> ReplayBuffer:
     )
 
 
-def replace_with(buffer: ReplayBuffer, snapshots, velocities=None, actions=None) -> ReplayBuffer:
-    """Keep only `snapshots` (k, *grid_shape, d) (and their `velocities` and `actions`, see
-    `add`): the "no replay buffer" ablation.
+def replace_with(
+    buffer: ReplayBuffer, snapshots, velocities=None, actions=None, point_velocities=None
+) -> ReplayBuffer:
+    """Keep only `snapshots` (k, *grid_shape, d) (and their `velocities`, `actions` and
+    `point_velocities`, see `add`): the "no replay buffer" ablation.
 
     Each learning phase then sees only the latest rollout (its newest `capacity` snapshots).
     """
-    return add(clear(buffer), snapshots, velocities, actions)
+    return add(clear(buffer), snapshots, velocities, actions, point_velocities)
 
 
 def valid_mask(buffer: ReplayBuffer) -> jnp.ndarray:
@@ -234,32 +250,29 @@ def newest(buffer: ReplayBuffer, k: int):
     return np.asarray(buffer.fields)[slots]
 
 
-@struct.dataclass
-class ReplayBufferWithoutActions:
-    """The buffer as checkpoints written before actions were recorded hold it (fields,
-    velocities, count, cursor; see `ReplayBuffer`): a template to restore such a checkpoint into,
-    and `upgrade` to the current buffer."""
+# What buffers written by earlier versions of litl lack, oldest first: the actions (and whether
+# each snapshot follows the one before) were recorded from 2026-12-05, the task point's velocity
+# from 2026-12-07.
+ADDED_LATER = ("actions", "follows", "point_velocities")
 
-    fields: Any
-    velocities: Any
-    count: Any
-    cursor: Any
 
-    @classmethod
-    def like(cls, buffer: ReplayBuffer) -> ReplayBufferWithoutActions:
-        """The same leaves as `buffer` (any batch axes) without its actions."""
-        return cls(
-            fields=buffer.fields, velocities=buffer.velocities, count=buffer.count, cursor=buffer.cursor
-        )
+def saved_layout(saved_keys, template: ReplayBuffer) -> dict | None:
+    """A template for a buffer checkpointed with the leaves `saved_keys` (an older litl's: some of
+    `ADDED_LATER` missing): `template`'s leaves under those keys; None where it holds them all."""
+    saved = set(saved_keys)
+    if not saved >= {"fields", "velocities", "count", "cursor"} or saved >= set(ADDED_LATER):
+        return None
+    return {name: leaf for name, leaf in vars(template).items() if name in saved}
 
-    def upgrade(self, template: ReplayBuffer) -> ReplayBuffer:
-        """The current buffer: these snapshots, with zero actions shaped as `template`'s and no
-        transitions (`follows` False): what led to them was not recorded."""
-        return ReplayBuffer(
-            fields=self.fields,
-            velocities=self.velocities,
-            actions=jnp.zeros(jnp.shape(template.actions), template.actions.dtype),
-            follows=jnp.zeros(jnp.shape(template.follows), bool),
-            count=self.count,
-            cursor=self.cursor,
-        )
+
+def upgrade(saved: dict, template: ReplayBuffer) -> ReplayBuffer:
+    """The current buffer from an older one's leaves (`saved_layout`): without recorded actions,
+    zero actions shaped as `template`'s and no transitions (`follows` False: what led to the
+    snapshots was not recorded); without the task point's velocity, the robot's (`velocities`,
+    which it is for a walker; a reach planner on such a buffer steers the centroid)."""
+    leaves = dict(saved)
+    if "actions" not in leaves:
+        leaves["actions"] = jnp.zeros(jnp.shape(template.actions), template.actions.dtype)
+        leaves["follows"] = jnp.zeros(jnp.shape(template.follows), bool)
+    leaves.setdefault("point_velocities", leaves["velocities"])
+    return ReplayBuffer(**leaves)

@@ -178,6 +178,21 @@ class Robot:
             F=state.F[..., :n, :, :],
         )
 
+    def task_point(self, state: SimState):
+        """(d,) the point the task steers in a scene's state: the centroid of its group
+        (`Task.point_group`, the arm's tip) or of the robot's own particles."""
+        return self._task_point_mean(self.own(state).x)
+
+    def task_point_velocity(self, state: SimState):
+        """(d,) the mean velocity of the particles whose centroid is `task_point`."""
+        return self._task_point_mean(self.own(state).v)
+
+    def _task_point_mean(self, values):
+        group = None if self.task is None else self.task.point_group
+        if group is not None:
+            values = values[..., jnp.asarray(self.layout.groups[group]), :]
+        return jnp.mean(values, axis=-2)
+
     @property
     def design_space(self) -> DesignSpace:
         """The co-design variables φ: bounds, initial value, projection, map to `Design`: the

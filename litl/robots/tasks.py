@@ -123,12 +123,14 @@ class Push:
 
 @dataclasses.dataclass(frozen=True)
 class Position:
-    """Bring the body's centroid along `axis` to the coordinate `target` (squared distance at
-    the end): walk to a point, along one axis, whatever the height."""
+    """Bring the body's centroid (or particle group `group`'s) along `axis` to the coordinate
+    `target` (squared distance at the end): walk to a point, or move an arm's tip to one, along
+    one axis, whatever the other coordinates."""
 
     target: float
     axis: int = 0
     weight: float = 1.0
+    group: str | None = None
 
     @property
     def name(self) -> str:
@@ -139,9 +141,14 @@ class Position:
             raise LayoutError(f"Position axis {self.axis} does not exist in {layout.dim}D")
         if not np.isfinite(self.target):
             raise LayoutError(f"Position target {self.target} must be a finite coordinate")
+        if self.group is not None:
+            layout.group_mask(self.group)
 
     def raw(self, layout, initial_state, final_state):
-        return (jnp.mean(final_state.x[:, self.axis]) - self.target) ** 2
+        x = final_state.x[:, self.axis]
+        if self.group is not None:
+            x = x[jnp.asarray(layout.groups[self.group])]
+        return (jnp.mean(x) - self.target) ** 2
 
     sign = 1.0  # less is better
 
@@ -179,6 +186,17 @@ class Task:
     def targets(self) -> dict[str, tuple[float, ...]]:
         """Target point of every reach term, by group name."""
         return {term.group: term.target for term in self.terms if isinstance(term, Reach)}
+
+    @property
+    def point_group(self) -> str | None:
+        """The particle group whose centroid the task steers: the one group every term reaches
+        or positions (the arm's ``tip``); None where the task moves the whole body (walkers, and
+        a task whose terms steer different groups or none). Latent planners steer this point
+        (`Robot.task_point`)."""
+        groups = {
+            term.group if isinstance(term, (Reach, Position)) else None for term in self.terms
+        }
+        return groups.pop() if len(groups) == 1 else None
 
     @property
     def push_targets(self) -> dict[str, tuple[float, ...]]:

@@ -152,7 +152,7 @@ def test_a_checkpoint_from_before_actions_were_recorded_restores_without_transit
     from flax import struct
 
     from litl.models import replay_buffer
-    from litl.models.replay_buffer import ReplayBuffer, ReplayBufferWithoutActions
+    from litl.models.replay_buffer import ReplayBuffer
 
     @struct.dataclass
     class Holder:  # a state with a buffer, as `LoopState` has
@@ -161,7 +161,8 @@ def test_a_checkpoint_from_before_actions_were_recorded_restores_without_transit
 
     fresh = Holder(buffer=ReplayBuffer.empty(4, (3, 3), 2, n_actions=2), weight=jnp.zeros(2))
     written = replay_buffer.add(fresh.buffer, jnp.ones((3, 3, 3, 2)), None, jnp.ones((3, 2)))
-    old = Holder(buffer=ReplayBufferWithoutActions.like(written), weight=jnp.ones(2))
+    old_leaves = ("fields", "velocities", "count", "cursor")  # the buffer before 2026-12-05
+    old = Holder(buffer={k: v for k, v in vars(written).items() if k in old_leaves}, weight=jnp.ones(2))
     checkpoints = Checkpoints(tmp_path)
     checkpoints.save(1, old, {"episodes": np.asarray(1)})
     restored, counters = checkpoints.restore(fresh, {"episodes": np.asarray(0)})
@@ -172,3 +173,35 @@ def test_a_checkpoint_from_before_actions_were_recorded_restores_without_transit
     np.testing.assert_array_equal(restored.weight, np.ones(2))
     assert restored.buffer.actions.shape == (4, 2) and not np.any(restored.buffer.actions)
     assert not np.any(replay_buffer.chronological(restored.buffer)[1])
+    np.testing.assert_array_equal(restored.buffer.point_velocities, written.velocities)
+
+
+def test_a_checkpoint_from_before_the_task_point_was_recorded_keeps_its_transitions(tmp_path):
+    from flax import struct
+
+    from litl.models import replay_buffer
+    from litl.models.replay_buffer import ReplayBuffer
+
+    @struct.dataclass
+    class Holder:
+        buffer: object
+
+    fresh = Holder(buffer=ReplayBuffer.empty(4, (3, 3), 2, n_actions=2))
+    velocities = jnp.arange(6.0).reshape(3, 2)
+    points = -velocities
+    written = replay_buffer.add(fresh.buffer, jnp.ones((3, 3, 3, 2)), velocities, jnp.ones((3, 2)), points)
+    np.testing.assert_array_equal(written.point_velocities[:3], points)
+    old = Holder(buffer={k: v for k, v in vars(written).items() if k != "point_velocities"})
+    checkpoints = Checkpoints(tmp_path)
+    checkpoints.save(1, old, {"episodes": np.asarray(1)})
+    restored, _ = checkpoints.restore(fresh, {"episodes": np.asarray(0)})
+    checkpoints.close()
+    np.testing.assert_array_equal(restored.buffer.actions, written.actions)
+    np.testing.assert_array_equal(restored.buffer.follows, written.follows)
+    np.testing.assert_array_equal(restored.buffer.point_velocities, written.velocities)
+    # and a current checkpoint keeps its own
+    current = Checkpoints(tmp_path / "current")
+    current.save(1, Holder(buffer=written), {"episodes": np.asarray(1)})
+    again, _ = current.restore(fresh, {"episodes": np.asarray(0)})
+    current.close()
+    np.testing.assert_array_equal(again.buffer.point_velocities, written.point_velocities)

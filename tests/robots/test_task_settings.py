@@ -56,3 +56,38 @@ def test_a_position_term_checks_its_axis_and_target():
         make_task_loss(Task(Position(target=0.3, axis=2)), robot.layout)
     with pytest.raises(LayoutError, match="finite coordinate"):
         make_task_loss(Task(Position(target=float("nan"))), robot.layout)
+
+
+def test_position_of_a_group_moves_that_groups_centroid_and_is_the_task_point():
+    robot = build_robot(
+        compose(["robot=arm", "task=position", "task.target=0.55", "task.group=tip", "+scale=smoke"])
+    )
+    (term,) = robot.task.terms
+    assert term == Position(target=0.55, axis=0, group="tip")
+    assert robot.task.point_group == "tip"
+    start = robot.initial_state()
+    tip = np.asarray(robot.layout.groups["tip"])
+    x = start.x.at[tip, 0].add(0.05)  # only the tip moves
+    end = start.replace(x=x)
+    tip_x = float(np.mean(np.asarray(start.x[tip, 0])))
+    total, _ = make_task_loss(robot.task, robot.layout)(start, end)
+    assert float(total) == pytest.approx((tip_x + 0.05 - 0.55) ** 2, rel=1e-3)
+    np.testing.assert_allclose(robot.task_point(end), np.asarray(end.x[tip]).mean(axis=0), rtol=1e-6)
+    # the arm's own task reaches with the tip; a walker's moves its whole body
+    assert build_robot(compose(["robot=arm", "+scale=smoke"])).task.point_group == "tip"
+    biped = build_robot(compose(["+scale=smoke"]))
+    assert biped.task.point_group is None
+    np.testing.assert_allclose(biped.task_point(start := biped.initial_state()), start.x.mean(axis=0))
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        (["robot=arm", "task=position", "task.target=0.5", "task.group=hand"], r"no such particle group .*'tip'"),
+        (["robot=arm", "task=locomotion", "task.group=tip"], "applies to task=position"),
+    ],
+)
+def test_a_bad_task_group_is_refused_naming_the_key(overrides, message):
+    with pytest.raises(SettingsError, match=message) as caught:
+        build_robot(compose([*overrides, "+scale=smoke"]))
+    assert caught.value.key == "task.group"
