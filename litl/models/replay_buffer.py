@@ -120,7 +120,9 @@ def occupied_mean(snapshots) -> jnp.ndarray:
     return jnp.sum(jnp.where(occupied, snapshots, 0), axis=axes) / count
 
 
-def add(buffer: ReplayBuffer, snapshots, velocities=None, actions=None, point_velocities=None) -> ReplayBuffer:
+def add(
+    buffer: ReplayBuffer, snapshots, velocities=None, actions=None, point_velocities=None
+) -> ReplayBuffer:
     """Append k snapshots of one rollout, overwriting the oldest entries once the buffer is full.
 
     The result is the same as writing the snapshots one at a time: if k exceeds the capacity only

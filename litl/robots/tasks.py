@@ -193,9 +193,7 @@ class Task:
         or positions (the arm's ``tip``); None where the task moves the whole body (walkers, and
         a task whose terms steer different groups or none). Latent planners steer this point
         (`Robot.task_point`)."""
-        groups = {
-            term.group if isinstance(term, (Reach, Position)) else None for term in self.terms
-        }
+        groups = {term.group if isinstance(term, (Reach, Position)) else None for term in self.terms}
         return groups.pop() if len(groups) == 1 else None
 
     @property

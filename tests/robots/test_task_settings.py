@@ -83,7 +83,10 @@ def test_position_of_a_group_moves_that_groups_centroid_and_is_the_task_point():
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        (["robot=arm", "task=position", "task.target=0.5", "task.group=hand"], r"no such particle group .*'tip'"),
+        (
+            ["robot=arm", "task=position", "task.target=0.5", "task.group=hand"],
+            r"no such particle group .*'tip'",
+        ),
         (["robot=arm", "task=locomotion", "task.group=tip"], "applies to task=position"),
     ],
 )
