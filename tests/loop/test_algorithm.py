@@ -32,11 +32,12 @@ def test_the_schedule_is_the_settings_unless_the_observer_does_not_learn(observe
     [
         # (checkpoint_every, carry bytes, per-step bytes, budget) of one seed's rollout, as the
         # rollout planned them while `optimize` was traced; the VAE reads the grid field, so it
-        # is in the carry; the budget (GiB) is shared by the 2 seeds.
-        ("kmeans", {"memory_budget": 0.4 / 1024}, (10, 6300, 843, 209_715)),
-        ("vae", {"memory_budget": 1.0 / 1024}, (10, 14492, 843, 524_288)),
-        ("none", {"checkpoint_every": 20}, (20, 6300, 843, None)),
-        ("kmeans", {"checkpoint_every": None}, (None, 6300, 843, None)),
+        # is in the carry; the budget (GiB) is shared by the 2 seeds. Per step: the observation is
+        # the (2, 2) centroid and task point.
+        ("kmeans", {"memory_budget": 0.4 / 1024}, (10, 6300, 851, 209_715)),
+        ("vae", {"memory_budget": 1.0 / 1024}, (10, 14492, 851, 524_288)),
+        ("none", {"checkpoint_every": 20}, (20, 6300, 851, None)),
+        ("kmeans", {"checkpoint_every": None}, (None, 6300, 851, None)),
     ],
 )
 def test_the_checkpoint_plan_is_known_before_anything_is_traced(observer, sim, expected):

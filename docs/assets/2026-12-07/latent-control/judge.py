@@ -1,5 +1,6 @@
-"""The plan's tests (plan.md, written before the runs: 12 in the first round, 6 in the second)
-and its descriptive cells, from results/.
+"""The plan's tests (plan.md, written before the runs: 12 in the first round, 6 in the second, 4
+in the third, 2 in the fourth, 14 in the fifth) and its descriptive cells, from results/ (the
+biped) and arm/results/ (the fifth round's arm).
 
     python docs/assets/2026-12-07/latent-control/judge.py > docs/assets/2026-12-07/latent-control/judge.txt
 
@@ -18,6 +19,8 @@ import numpy as np
 from scipy import stats
 
 HERE = pathlib.Path(__file__).parent / "results"
+ARM = pathlib.Path(__file__).parent / "arm" / "results"  # the fifth round's
+ARM_GOALS = {"reach0.46": "reach:0.46", "reach0.54": "reach:0.54", "reach0.6": "reach:0.6"}
 GOALS = {"walk1": "walk:+1", "walk-1": "walk:-1", "reach0.37": "reach:0.37"}
 PLANNERS = (
     "trained",
@@ -33,8 +36,8 @@ PLANNERS = (
 MODELLED = ("latent_mpc", "latent_mpc_linear", "latent_lqr", "latent_ilqr", "oracle_mpc", "oracle_mpc_h10")
 
 
-def load(obs: str, planner: str, goal: str):
-    path = HERE / obs / f"{planner}-{goal}.json"
+def load(obs: str, planner: str, goal: str, root: pathlib.Path = HERE):
+    path = root / obs / f"{planner}-{goal}.json"
     if not path.exists():
         return None
     summary = json.loads(path.read_text())
@@ -88,8 +91,9 @@ def cells() -> None:
             )
 
 
-def judge(title: str, family) -> None:
-    """Each test of `family` (name, cell a, cell b, paired), Holm over the family."""
+def judge(title: str, family, drop_missing: bool = False) -> None:
+    """Each test of `family` (name, cell a, cell b, paired), Holm over the family (`drop_missing`:
+    over the tests whose cells ran, the fifth round's rule; else a missing test counts as p 1)."""
     rows = []
     for name, a, b, paired in family:
         x, y = load(*a), load(*b)
@@ -101,8 +105,9 @@ def judge(title: str, family) -> None:
         text = interval(x - y) if paired else f"{x.mean() - y.mean():+.3f} (Welch)"
         rows.append((name, (text, test.pvalue)))
     ready = [r for r in rows if r[1] is not None]
-    print(f"\n{title} ({len(ready)} of {len(rows)} computable), Holm over {len(rows)}:")
-    adjusted = holm([r[1][1] for r in ready] + [1.0] * (len(rows) - len(ready)))
+    over = len(ready) if drop_missing else len(rows)
+    print(f"\n{title} ({len(ready)} of {len(rows)} computable), Holm over {over}:")
+    adjusted = holm([r[1][1] for r in ready] + ([] if drop_missing else [1.0] * (len(rows) - len(ready))))
     for (name, (text, p)), a in zip(ready, adjusted, strict=False):
         print(f"  {name:48s} {text:34s} p {p:.2g}  Holm {a:.2g}")
     for name, value in rows:
@@ -227,9 +232,43 @@ def tests() -> None:
     judge("The plan's family", family)
 
 
+def fifth_round() -> None:
+    print("\nFifth round: the arm's tip, final |x_tip - target| at 1 s, mean [90% CI]; seeds within")
+    print("0.01; mean |final speed| of the tip along x")
+    print(f"{'observer':8s} {'planner':12s} " + " ".join(f"{g:>40s}" for g in ARM_GOALS.values()))
+    for obs in ("vae", "pca", "sinusoid"):
+        for planner in ("trained", "rest", "latent_mpc", "latent_lqr", "latent_ilqr", "oracle_mpc_h10", "retrained"):
+            row = [load(obs, planner, g, ARM) for g in ARM_GOALS]
+            if all(r is None for r in row):
+                continue
+            texts = []
+            for r in row:
+                if r is None:
+                    texts.append("—")
+                    continue
+                speed = np.mean([abs(s["final_speed"]) for s in r[0]["seeds"]])
+                texts.append(f"{interval(r[1])} {int(np.sum(r[1] < 0.01))}/{len(r[1])} {speed:.3f}")
+            print(f"{obs:8s} {planner:12s} " + " ".join(f"{t:>40s}" for t in texts))
+    family = []
+    for goal in ("reach0.46", "reach0.54"):
+        cell = lambda obs, planner: (obs, planner, goal, ARM)  # noqa: E731
+        g = ARM_GOALS[goal]
+        family += [
+            (f"arm {g}: latent_mpc - rest", cell("vae", "latent_mpc"), cell("vae", "rest"), True),
+            (f"arm {g}: latent_mpc - trained", cell("vae", "latent_mpc"), cell("vae", "trained"), True),
+            (f"arm {g}: latent_mpc - retrained", cell("vae", "latent_mpc"), cell("vae", "retrained"), False),
+            (f"arm {g}: oracle_mpc_h10 - latent_mpc", cell("vae", "oracle_mpc_h10"), cell("vae", "latent_mpc"), True),
+            (f"arm {g}: retrained - sinusoid", cell("vae", "retrained"), cell("sinusoid", "trained"), False),
+            (f"arm {g}: latent_lqr - rest", cell("vae", "latent_lqr"), cell("vae", "rest"), True),
+            (f"arm {g}: latent_mpc vae - pca", cell("vae", "latent_mpc"), cell("pca", "latent_mpc"), False),
+        ]
+    judge("The fifth round's family (the arm)", family, drop_missing=True)
+
+
 if __name__ == "__main__":
     cells()
     tests()
     second_round()
     third_round()
     fourth_round()
+    fifth_round()
