@@ -146,7 +146,14 @@ def _drawn_robot(config: Config) -> Robot:
 
 
 def _placed(robot: Robot, config: Config) -> Robot:
-    """`robot` with the configured material, task, world and design space."""
+    """`robot` with the configured shift, material, task, world and design space."""
+    if config.robot.shift:
+        from litl.sim import SimConfigError
+
+        try:
+            robot = robot.shifted(float(config.robot.shift))
+        except SimConfigError as error:
+            raise SettingsError(f"robot.shift={config.robot.shift}: {error}", "robot.shift") from None
     if config.robot.material.changes():
         robot = _with_material(robot, config.robot.material)
     kind = config.task.kind

@@ -182,6 +182,8 @@ class RobotConfig(Settings):
         from_image`: its legend beside it, ``<image>.json``, or litl's palette); a co-designed
         robot's drawing (`python -m litl.replay` writes one) loads back so.
       width: the drawn robot's length along x (None: the legend's note ``_width``).
+      shift: move the robot this far along x (domain units) from where its definition places it,
+        its reach targets with it (`Robot.shifted`): e.g. 0.3 starts the biped mid-domain.
     """
 
     KEY = "robot"
@@ -192,10 +194,13 @@ class RobotConfig(Settings):
     material: MaterialConfig = field(default_factory=MaterialConfig)
     image: str | None = None
     width: float | None = None
+    shift: float = 0.0
 
     def check(self) -> None:
         if self.width is not None and not (number(self.width) and self.width > 0):
             self._invalid("width", "must be a length > 0 (of the unit domain), e.g. 0.3")
+        if not number(self.shift):
+            self._invalid("shift", "must be a finite length along x (of the unit domain), e.g. 0.3")
 
 
 @dataclass(frozen=True)

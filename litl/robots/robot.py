@@ -16,7 +16,7 @@ import numpy as np
 from litl.robots.design import DesignSpace, Material
 from litl.robots.layout import Layout, LayoutError
 from litl.robots.scenery import Scenery, check_apart
-from litl.robots.tasks import Task, make_task_loss
+from litl.robots.tasks import Reach, Task, make_task_loss
 from litl.sim import (
     Body,
     Design,
@@ -193,6 +193,35 @@ class Robot:
             values = values[..., jnp.asarray(self.layout.groups[group]), :]
         return jnp.mean(values, axis=-2)
 
+    def shifted(self, offset: float) -> Robot:
+        """This robot moved by `offset` along x (domain units) from where its definition placed
+        it, its reach targets with it (a walker started mid-domain, so that walking −x has room).
+        A `SimConfigError` where it would leave the walls, with the offsets that fit. Scenery
+        (a world's bodies) is placed around the robot afterwards (`litl.worlds.put`), so a robot
+        that already has some is refused."""
+        if not np.isfinite(offset):
+            raise SimConfigError(f"robot {self.name!r}: a shift must be a finite length, got {offset!r}")
+        if self.scenery:
+            raise SimConfigError(
+                f"robot {self.name!r} already stands in a world (its scenery "
+                f"{[b.name for b in self.scenery]}); shift it before litl.worlds.put"
+            )
+        assert self.config.boundary is not None  # SimConfig sets the default box
+        margin = (self.config.boundary.thickness + 0.5) * self.config.dx
+        low, high = self.layout.bounds()
+        least, most = margin - low[0], (self.config.grid_shape[0] * self.config.dx - margin) - high[0]
+        if not least <= offset <= most:
+            raise SimConfigError(
+                f"robot {self.name!r}: a shift of {offset:g} along x takes it through a wall; "
+                f"shifts from {least:.4f} to {most:.4f} keep it inside (dx = {self.config.dx:g})"
+            )
+        move = np.zeros(self.dim)
+        move[0] = offset
+        task = self.task
+        if task is not None:
+            task = Task(tuple(_shifted_term(term, move) for term in task.terms))
+        return dataclasses.replace(self, layout=self.layout.translated(move), task=task)
+
     @property
     def design_space(self) -> DesignSpace:
         """The co-design variables φ: bounds, initial value, projection, map to `Design`: the
@@ -242,6 +271,14 @@ class Robot:
         if not self.scenery:
             return make_task_loss(task, self.layout)
         return make_task_loss(task, self.layout, own=self.own, bodies=self.bodies)
+
+
+def _shifted_term(term, move):
+    """A task term of a robot moved by `move`: reach targets move with it; the other terms are
+    displacements, velocities or coordinates the user chose (`Position`), and stay."""
+    if isinstance(term, Reach):
+        return dataclasses.replace(term, target=tuple(np.asarray(term.target) + move))
+    return term
 
 
 def check_fits(layout: Layout, config: SimConfig, name: str = "robot") -> None:

@@ -94,3 +94,38 @@ def test_a_bad_task_group_is_refused_naming_the_key(overrides, message):
     with pytest.raises(SettingsError, match=message) as caught:
         build_robot(compose([*overrides, "+scale=smoke"]))
     assert caught.value.key == "task.group"
+
+
+def test_a_shifted_robot_starts_further_along_x_with_its_reach_targets():
+    biped = build_robot(compose(["+scale=smoke"]))
+    moved = build_robot(compose(["robot.shift=0.3", "+scale=smoke"]))
+    np.testing.assert_allclose(moved.layout.positions[:, 0], biped.layout.positions[:, 0] + 0.3, atol=1e-12)
+    np.testing.assert_allclose(moved.layout.positions[:, 1], biped.layout.positions[:, 1])
+    arm = build_robot(compose(["robot=arm", "+scale=smoke"]))
+    left = build_robot(compose(["robot=arm", "robot.shift=-0.1", "+scale=smoke"]))
+    (reach,) = arm.task.terms
+    (moved_reach,) = left.task.terms
+    np.testing.assert_allclose(moved_reach.target, np.asarray(reach.target) + [-0.1, 0.0])
+    # the task is the same relative to the body: equal losses for the same motion
+    for robot in (arm, left):
+        start = robot.initial_state()
+        end = start.replace(x=start.x + jnp.asarray([0.05, 0.0], start.x.dtype))
+        total, _ = make_task_loss(robot.task, robot.layout)(start, end)
+        assert float(total) == pytest.approx(
+            float(
+                make_task_loss(arm.task, arm.layout)(
+                    arm.initial_state(),
+                    arm.initial_state().replace(x=arm.initial_state().x + jnp.asarray([0.05, 0.0])),
+                )[0]
+            ),
+            rel=1e-4,
+        )
+
+
+@pytest.mark.parametrize(
+    "shift, message", [("0.9", r"through a wall; shifts from -0\.\d+ to 0\.\d+"), ("nan", "finite length")]
+)
+def test_a_shift_through_a_wall_is_refused_with_the_shifts_that_fit(shift, message):
+    with pytest.raises(SettingsError, match=message) as caught:
+        build_robot(compose([f"robot.shift={shift}", "+scale=smoke"]))
+    assert caught.value.key == "robot.shift"
