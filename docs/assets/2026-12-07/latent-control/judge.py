@@ -46,10 +46,11 @@ def load(obs: str, planner: str, goal: str, root: pathlib.Path = HERE):
     return summary, np.array([s[key] for s in seeds])
 
 
-def interval(values) -> str:
+def interval(values, digits: int = 3) -> str:
     values = np.asarray(values)
     half = stats.t.ppf(0.95, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
-    return f"{values.mean():+.3f} [{values.mean() - half:+.3f}, {values.mean() + half:+.3f}]"
+    m, f = values.mean(), f"+.{digits}f"
+    return f"{m:{f}} [{m - half:{f}}, {m + half:{f}}]"
 
 
 def holm(p):
@@ -235,7 +236,7 @@ def tests() -> None:
 def fifth_round() -> None:
     print("\nFifth round: the arm's tip, final |x_tip - target| at 1 s, mean [90% CI]; seeds within")
     print("0.01; mean |final speed| of the tip along x")
-    print(f"{'observer':8s} {'planner':12s} " + " ".join(f"{g:>40s}" for g in ARM_GOALS.values()))
+    print(f"{'observer':8s} {'planner':14s} " + " ".join(f"{g:>44s}" for g in ARM_GOALS.values()))
     for obs in ("vae", "pca", "sinusoid"):
         for planner in ("trained", "rest", "latent_mpc", "latent_lqr", "latent_ilqr", "oracle_mpc_h10", "retrained"):
             row = [load(obs, planner, g, ARM) for g in ARM_GOALS]
@@ -247,8 +248,8 @@ def fifth_round() -> None:
                     texts.append("—")
                     continue
                 speed = np.mean([abs(s["final_speed"]) for s in r[0]["seeds"]])
-                texts.append(f"{interval(r[1])} {int(np.sum(r[1] < 0.01))}/{len(r[1])} {speed:.3f}")
-            print(f"{obs:8s} {planner:12s} " + " ".join(f"{t:>40s}" for t in texts))
+                texts.append(f"{interval(r[1], 4)} {int(np.sum(r[1] < 0.01))}/{len(r[1])} {speed:.3f}")
+            print(f"{obs:8s} {planner:14s} " + " ".join(f"{t:>44s}" for t in texts))
     family = []
     for goal in ("reach0.46", "reach0.54"):
         cell = lambda obs, planner: (obs, planner, goal, ARM)  # noqa: E731
