@@ -1,5 +1,5 @@
 """The plan's tests (plan.md, written before the runs: 12 in the first round, 6 in the second, 4
-in the third, 2 in the fourth, 14 in the fifth) and its descriptive cells, from results/ (the
+in the third, 2 in the fourth, 14 in the fifth, 4 in the sixth) and its descriptive cells, from results/ (the
 biped) and arm/results/ (the fifth round's arm).
 
     python docs/assets/2026-12-07/latent-control/judge.py > docs/assets/2026-12-07/latent-control/judge.txt
@@ -266,6 +266,26 @@ def fifth_round() -> None:
     judge("The fifth round's family (the arm)", family, drop_missing=True)
 
 
+SHIFTED = pathlib.Path(__file__).parent / "shifted" / "results"  # the sixth round's
+
+
+def sixth_round() -> None:
+    print("\nSixth round: the biped started 0.3 further right (robot.shift=0.3); displacement in the")
+    print("goal's direction after 32 control steps, mean [90% CI]")
+    for planner in ("trained", "rest", "latent_mpc", "oracle_mpc_h10", "retrained"):
+        row = [load("vae", planner, g, SHIFTED) for g in ("walk-1", "walk1")]
+        texts = [interval(r[1]) if r is not None else "—" for r in row]
+        print(f"  {planner:16s} walk:-1 {texts[0]:>28s}   walk:+1 {texts[1]:>28s}")
+    cell = lambda planner: ("vae", planner, "walk-1", SHIFTED)  # noqa: E731
+    family = [
+        ("shifted walk:-1: latent_mpc - rest", cell("latent_mpc"), cell("rest"), True),
+        ("shifted walk:-1: latent_mpc - retrained", cell("latent_mpc"), cell("retrained"), False),
+        ("shifted walk:-1: oracle_mpc_h10 - latent_mpc", cell("oracle_mpc_h10"), cell("latent_mpc"), True),
+        ("walk:-1: retrained shifted - retrained at the wall", cell("retrained"), ("vae", "retrained", "walk-1"), False),
+    ]
+    judge("The sixth round's family (walk -x with room)", family, drop_missing=True)
+
+
 if __name__ == "__main__":
     cells()
     tests()
@@ -273,3 +293,4 @@ if __name__ == "__main__":
     third_round()
     fourth_round()
     fifth_round()
+    sixth_round()
