@@ -238,7 +238,15 @@ def fifth_round() -> None:
     print("0.01; mean |final speed| of the tip along x")
     print(f"{'observer':8s} {'planner':14s} " + " ".join(f"{g:>44s}" for g in ARM_GOALS.values()))
     for obs in ("vae", "pca", "sinusoid"):
-        for planner in ("trained", "rest", "latent_mpc", "latent_lqr", "latent_ilqr", "oracle_mpc_h10", "retrained"):
+        for planner in (
+            "trained",
+            "rest",
+            "latent_mpc",
+            "latent_lqr",
+            "latent_ilqr",
+            "oracle_mpc_h10",
+            "retrained",
+        ):
             row = [load(obs, planner, g, ARM) for g in ARM_GOALS]
             if all(r is None for r in row):
                 continue
@@ -252,13 +260,18 @@ def fifth_round() -> None:
             print(f"{obs:8s} {planner:14s} " + " ".join(f"{t:>44s}" for t in texts))
     family = []
     for goal in ("reach0.46", "reach0.54"):
-        cell = lambda obs, planner: (obs, planner, goal, ARM)  # noqa: E731
+        cell = lambda obs, planner, goal=goal: (obs, planner, goal, ARM)  # noqa: E731
         g = ARM_GOALS[goal]
         family += [
             (f"arm {g}: latent_mpc - rest", cell("vae", "latent_mpc"), cell("vae", "rest"), True),
             (f"arm {g}: latent_mpc - trained", cell("vae", "latent_mpc"), cell("vae", "trained"), True),
             (f"arm {g}: latent_mpc - retrained", cell("vae", "latent_mpc"), cell("vae", "retrained"), False),
-            (f"arm {g}: oracle_mpc_h10 - latent_mpc", cell("vae", "oracle_mpc_h10"), cell("vae", "latent_mpc"), True),
+            (
+                f"arm {g}: oracle_mpc_h10 - latent_mpc",
+                cell("vae", "oracle_mpc_h10"),
+                cell("vae", "latent_mpc"),
+                True,
+            ),
             (f"arm {g}: retrained - sinusoid", cell("vae", "retrained"), cell("sinusoid", "trained"), False),
             (f"arm {g}: latent_lqr - rest", cell("vae", "latent_lqr"), cell("vae", "rest"), True),
             (f"arm {g}: latent_mpc vae - pca", cell("vae", "latent_mpc"), cell("pca", "latent_mpc"), False),
@@ -281,7 +294,12 @@ def sixth_round() -> None:
         ("shifted walk:-1: latent_mpc - rest", cell("latent_mpc"), cell("rest"), True),
         ("shifted walk:-1: latent_mpc - retrained", cell("latent_mpc"), cell("retrained"), False),
         ("shifted walk:-1: oracle_mpc_h10 - latent_mpc", cell("oracle_mpc_h10"), cell("latent_mpc"), True),
-        ("walk:-1: retrained shifted - retrained at the wall", cell("retrained"), ("vae", "retrained", "walk-1"), False),
+        (
+            "walk:-1: retrained shifted - retrained at the wall",
+            cell("retrained"),
+            ("vae", "retrained", "walk-1"),
+            False,
+        ),
     ]
     judge("The sixth round's family (walk -x with room)", family, drop_missing=True)
 
