@@ -197,6 +197,23 @@ def test_the_oracle_plans_through_the_simulator_and_improves_its_own_plan():
     assert np.any(np.asarray(plan) != 0)
 
 
+def test_planners_steer_the_arms_tip_not_its_centroid():
+    env, env_params = litl.envs.make("arm", hold=10, dx=1 / 32)
+    tip = np.asarray(env.robot.layout.groups["tip"])
+    _, state = env.reset(jax.random.key(0), env_params)
+    start = float(env.robot.task_point(state.sim)[0])
+    settings = MPCSettings(horizon=3, iterations=5, learning_rate=1.0, action_cost=0.0, stop=0.0)
+    goal = Goal("reach", start - 0.03)
+    out = jax.jit(control, static_argnums=(0, 3, 4, 6, 7))(
+        env, env_params, _obs_model(env, env_params), goal, settings, jax.random.key(0), 3, True
+    )
+    particles, positions = np.asarray(out["particles"]), np.asarray(out["positions"])
+    # the episode records the tip's x, which the centroid's is not once the arm bends
+    np.testing.assert_allclose(positions[1:], particles[:, tip, 0].mean(axis=1), rtol=1e-6)
+    assert np.max(np.abs(positions[1:] - particles[:, :, 0].mean(axis=1))) > 1e-3
+    assert positions[-1] < start - 0.005  # the oracle bent the tip toward the target
+
+
 def test_a_nonfinite_prediction_is_not_acted_on_and_is_named():
     env, env_params = litl.envs.make("biped", hold=4, dx=1 / 32)
     model = _obs_model(env, env_params)
