@@ -8,6 +8,8 @@ from the replay buffer's transitions, their multi-step prediction error, and fin
 * `litl.latent.lqr`: `LQRProblem`, `solve` (backward Riccati recursion), `rollout`.
 * `litl.latent.model`: `LatentModel` (a dynamics model and a velocity readout), `fit_model` from
   a seed's replay buffer.
+* `litl.latent.exploration`: `explore`, random-action episodes a model can be fitted on
+  (`fit_sequence`) beside or instead of the buffer; `Exploration`, its settings.
 * `litl.latent.planning`: `Goal`, shooting MPC (`MPCSettings`, `mpc_step`) and LQR on the
   position-augmented linear model (`LQRSettings`, `augmented_problem`), `control` (an episode in
   `litl.envs`); registered as `controller=latent_mpc`, `latent_lqr` and run on a trained run by

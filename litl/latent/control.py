@@ -6,12 +6,17 @@ its observer's latent space.
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --set horizon=20 --set iterations=50
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --planner trained  # the run's own MLP
     python -m litl.latent.control RUN_DIR --goal reach:0.6 --control-steps 64  # twice the run's 1 s
+    python -m litl.latent.control RUN_DIR --goal reach:0.6 --data both         # and random actions
+    python -m litl.latent.control RUN_DIR --goal walk:-1 --set warm_start=better
 
 From the run's newest checkpoint (its replay buffer, with the actions recorded between snapshots,
 and its observer) it fits, per seed, a `litl.latent.model.LatentModel` (the dynamics model of
 `loop.dynamics`' settings, on every transition, and the velocity readout), then runs one episode
 of the robot (its co-designed body) in `litl.envs` under the planner, every seed vmapped in one
-jit-compiled program. Planners (`controller=` names, `litl.latent.planning`): ``latent_mpc``
+jit-compiled program. `--data explored` fits the model on exploratory random-action episodes
+instead (`litl.latent.exploration`; `--explore-episodes`, `--explore-hold`), which any observer
+with features allows (k-means too); `--data both` on both. Planners (`controller=` names,
+`litl.latent.planning`): ``latent_mpc``
 (shooting MPC through the MLP model; `--set model=linear` for the linear one), ``latent_ilqr``
 (the same cost minimized by iLQR), ``latent_lqr``
 (reach goals only), and three references: ``trained`` (the run's own controller, which was
@@ -42,6 +47,9 @@ from typing import Any
 from litl.errors import UserError, exit_on_user_error
 
 REFERENCES = ("trained", "rest", "oracle_mpc")
+# What the latent model is fitted on: the run's replay buffer (the trained controller's
+# behaviour), exploratory random-action episodes (`litl.latent.exploration`), or both.
+DATA = ("buffer", "explored", "both")
 
 
 class ControlError(UserError, ValueError):
@@ -67,10 +75,12 @@ def planner_settings(planner: str, overrides: list[str]):
     return cls(**values)
 
 
-def load(run_dir: pathlib.Path, latent: bool = True):
+def load(run_dir: pathlib.Path, latent: bool = True, features: bool = False):
     """(robot, config, algorithm, seeds, state) of a run's newest checkpoint, refused with a
-    `ControlError` where the latent planners cannot use it (`latent=False`: any trained run,
-    for the ``trained`` reference, e.g. open-loop sinusoids)."""
+    `ControlError` where the latent planners cannot use it: `latent` (a model fitted on the
+    buffer) needs a latent codec and recorded actions; `features` (a model fitted on exploratory
+    episodes only) any observer with features; neither: any trained run, for the ``trained``
+    reference, e.g. open-loop sinusoids."""
     import numpy as np
 
     from litl.loop import make_algorithm, stack_seeds
@@ -83,7 +93,13 @@ def load(run_dir: pathlib.Path, latent: bool = True):
     if latent and (learner is None or learner.latent is None):
         raise ControlError(
             f"{run_dir}: its observer ({config.observer.kind}) has no latent space to plan in; "
-            f"the latent planners need a run with observer vae, ae or pca"
+            f"the latent planners need a run with observer vae, ae or pca (or, with --data "
+            f"explored, any observer with features, e.g. kmeans)"
+        )
+    if features and algorithm.observer.n_features == 0:
+        raise ControlError(
+            f"{run_dir}: its observer ({config.observer.kind}) has no features to plan with; "
+            f"the latent planners need a run with an observer (vae, ae, pca or kmeans)"
         )
     checkpoints = run_dir / "checkpoints"
     if not checkpoints.is_dir():
@@ -116,16 +132,22 @@ def run(
     out=None,
     animate=False,
     control_steps: int | None = None,
+    data: str = "buffer",
+    exploration=None,
 ) -> dict:
     """Plan toward `goal` in every seed of the run (see the module docstring); the summary
     written to `out` (its ``failures`` name the seeds whose plans were not finite); `animate`:
     also the first chosen seed's episode as a .gif beside it (not for ``trained``: use
     `python -m litl.replay`); `control_steps`: the episode's length (None: the run's rollout's;
-    longer shows whether a reach ends at rest; not for ``trained``, which replays the run's)."""
+    longer shows whether a reach ends at rest; not for ``trained``, which replays the run's);
+    `data`: what the latent model is fitted on (`DATA`); `exploration`: the exploratory episodes'
+    `litl.latent.exploration.Exploration` (default settings where `data` needs them)."""
     import jax
     import jax.numpy as jnp
 
+    from litl.latent.exploration import Exploration
     from litl.latent.planning import PLANNERS, Goal
+    from litl.models.controller import MLPController
 
     run_dir = pathlib.Path(run_dir)
     if planner not in (*PLANNERS, *REFERENCES):
@@ -138,16 +160,32 @@ def run(
         raise ControlError(
             "--control-steps: the trained reference replays the run's own rollout; leave it out"
         )
+    if data not in DATA:
+        raise ControlError(f"--data {data!r}: choose one of {DATA}")
+    if exploration is not None and data == "buffer":
+        raise ControlError("--explore-episodes/--explore-hold: set --data explored or both to use them")
+    if data != "buffer" and exploration is None:
+        exploration = Exploration()
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
-    robot, config, algorithm, all_seeds, state = load(run_dir, latent=planner != "trained")
+    planned = planner != "trained"
+    robot, config, algorithm, all_seeds, state = load(
+        run_dir, latent=planned and data != "explored", features=planned
+    )
+    warm = getattr(settings, "warm_start", "previous")
+    if warm != "previous" and not isinstance(algorithm.controller, MLPController):
+        raise ControlError(
+            f"--set warm_start={warm}: it starts from the run's trained controller, "
+            f"which must read the observer's features (controller mlp); this run's is "
+            f"{config.controller.kind}"
+        )
     parsed.check((0.0, robot.config.grid_shape[parsed.axis] * robot.config.dx))
     chosen = all_seeds if seeds is None else list(seeds)
     missing = [s for s in chosen if s not in all_seeds]
     if missing:
         raise ControlError(f"--seeds {missing}: the run has seeds {all_seeds}")
     state = jax.tree.map(lambda leaf: leaf[jnp.asarray([all_seeds.index(s) for s in chosen])], state)
-    episode = Episode(robot, config, algorithm, parsed, planner, settings, control_steps)
+    episode = Episode(robot, config, algorithm, parsed, planner, settings, control_steps, data, exploration)
     if planner == "trained":
         results, fits, times = _trained(robot, algorithm, state, episode.stride, parsed.axis), None, {}
     else:
@@ -188,6 +226,8 @@ class Episode:
     planner: str
     settings: Any
     steps: int | None = None  # control steps of the episode; None: the run's rollout's
+    data: str = "buffer"  # what the latent model is fitted on (`DATA`)
+    exploration: Any = None  # the exploratory episodes' `Exploration` (data explored or both)
 
     @property
     def stride(self) -> int:
@@ -213,7 +253,8 @@ class Episode:
         )
         one = lambda *args: self._one(env, env_params, dtype, *args)
         keys = jax.vmap(lambda s: jax.random.fold_in(jax.random.key(s), 78))(jnp.asarray(chosen))
-        return jax.jit(jax.vmap(one)), (state.observer, state.buffer, state.design, keys)
+        arguments = (state.observer, state.buffer, state.design, state.controller, keys)
+        return jax.jit(jax.vmap(one)), arguments
 
     def run(self, state, chosen):
         """(results, the fits' statistics, {compile_s, run_s}) of every seed, vmapped."""
@@ -227,22 +268,31 @@ class Episode:
         results, fits = jax.block_until_ready(compiled(*arguments))
         return results, fits, {"compile_s": compile_s, "run_s": time.perf_counter() - started}
 
-    def _one(self, env, env_params, dtype, observer, buffer, design, key):
+    def _one(self, env, env_params, dtype, observer, buffer, design, controller, key):
         import jax
         import jax.numpy as jnp
 
-        from litl.latent.model import fit_model
+        from litl.latent.exploration import explore, join
+        from litl.latent.model import buffer_sequence, fit_sequence
         from litl.latent.planning import control
 
         robot, goal = self.robot, self.goal
         params = env_params.replace(design=robot.design_space.to_design(design, dtype), observer=observer)
         kind = getattr(self.settings, "model", "linear" if self.planner == "latent_lqr" else "mlp")
-        codec = self.algorithm.observer.learner.latent
         control_dt = self.stride * robot.config.dt
-        model, fit = fit_model(codec, observer, buffer, key, self.config.loop.dynamics, control_dt, kind)
+        parts = []
+        if self.data != "explored":
+            parts.append(buffer_sequence(self.algorithm.observer.learner.latent, observer, buffer))
+        if self.data != "buffer":
+            explored = jax.random.fold_in(key, 1)  # the exploration's own draws
+            parts.append(explore(env, params, explored, self.exploration, self.control_steps))
+        model, fit = fit_sequence(join(*parts), key, self.config.loop.dynamics, control_dt, kind)
         if self.planner != "rest":
             oracle = self.planner == "oracle_mpc"
-            return control(env, params, model, goal, self.settings, key, self.control_steps, oracle), fit
+            module = self.algorithm.controller
+            guide = lambda z, t: module.apply(controller, z.astype(dtype), time=jnp.asarray(t, dtype))
+            steps = self.control_steps
+            return control(env, params, model, goal, self.settings, key, steps, oracle, guide), fit
         _, env_state = env.reset(key, params)
         zero = jnp.zeros(env.num_actions, dtype)
 
@@ -273,6 +323,9 @@ def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
         # what the goal moves: the task's group (the arm's tip) or the whole robot's centroid
         "point": (episode.robot.task and episode.robot.task.point_group) or "centroid",
         "settings": dataclasses.asdict(settings) if settings is not None else None,
+        # what the latent model was fitted on, and the exploratory episodes' settings
+        "data": episode.data if episode.planner != "trained" else None,
+        "exploration": dataclasses.asdict(episode.exploration) if episode.exploration else None,
         "control_dt": episode.stride * episode.robot.config.dt,
         "control_steps": episode.control_steps,
         "compile_s": times.get("compile_s"),
@@ -370,7 +423,31 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--control-steps", type=int, default=None, help="the episode's length (default: the run's rollout's)"
     )
+    parser.add_argument(
+        "--data",
+        default="buffer",
+        choices=DATA,
+        help="what the latent model is fitted on: the run's buffer, exploratory episodes, or both",
+    )
+    parser.add_argument(
+        "--explore-episodes", type=int, default=None, help="exploratory episodes (default 32)"
+    )
+    parser.add_argument(
+        "--explore-hold", type=int, default=None, help="control steps each random action is held (default 4)"
+    )
     return parser
+
+
+def _exploration(episodes: int | None, hold: int | None):
+    """The exploration the command line asks for (None where it names neither setting)."""
+    if episodes is None and hold is None:
+        return None
+    from litl.latent.exploration import Exploration
+
+    defaults = Exploration()
+    return Exploration(
+        episodes if episodes is not None else defaults.episodes, hold if hold is not None else defaults.hold
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -385,6 +462,8 @@ def main(argv: list[str] | None = None) -> int:
             args.out,
             args.animate,
             args.control_steps,
+            args.data,
+            _exploration(args.explore_episodes, args.explore_hold),
         )
     for entry in summary["seeds"]:
         what = (

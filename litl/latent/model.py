@@ -11,8 +11,9 @@ trajectory into a predicted displacement, Δx = Σ_t control_dt · v(z_{t+1}).
 
 `fit_model(codec, params, buffer, key, settings, ...)` encodes one seed's buffer in the order its
 snapshots were stored (`encode_buffer`, shared with the in-loop measurement), fits the chosen
-dynamics model on every transition, and the readout on every valid snapshot. Jittable and
-vmappable over seeds.
+dynamics model on every transition, and the readout on every valid snapshot. `fit_sequence`
+fits the same on any chronological data, e.g. exploratory episodes
+(`litl.latent.exploration`). Jittable and vmappable over seeds.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from litl.latent.dynamics import LinearDynamics, Transitions, fit_linear, fit_mlp
+from litl.latent.exploration import Sequence
 from litl.models.replay_buffer import ReplayBuffer, chronological
 from litl.settings.dynamics import DynamicsConfig
 
@@ -125,34 +127,48 @@ def fit_readout(latents, velocities, mask, ridge: float = 1e-6):
 def fit_model(
     codec, params, buffer: ReplayBuffer, key, settings: DynamicsConfig, control_dt: float, kind: str = "mlp"
 ) -> tuple[LatentModel, dict]:
-    """(the model, its fit's statistics) from one seed's buffer under the observer's `params`.
+    """(the model, its fit's statistics) from one seed's buffer under the observer's `params`:
+    `fit_sequence` of `buffer_sequence`.
 
     Args:
       codec: the observer's `LatentCodec` (`Learner.latent`).
       settings: the dynamics models' settings (`loop.dynamics`: `.linear`, `.mlp`).
       control_dt: seconds per control step (`loop.snapshot_stride` times the simulation's dt).
       kind: ``"mlp"`` (z' = z + g(z, a)) or ``"linear"`` (z' = A z + B a + c).
+    """
+    return fit_sequence(buffer_sequence(codec, params, buffer), key, settings, control_dt, kind)
+
+
+def buffer_sequence(codec, params, buffer: ReplayBuffer) -> Sequence:
+    """One seed's buffer, encoded, as the chronological `Sequence` a model is fitted on."""
+    encoded = encode_buffer(codec, params, buffer)
+    return Sequence(encoded.latents, encoded.actions, encoded.velocities, encoded.links, encoded.valid)
+
+
+def fit_sequence(
+    data: Sequence, key, settings: DynamicsConfig, control_dt: float, kind: str = "mlp"
+) -> tuple[LatentModel, dict]:
+    """(the model, its fit's statistics) from chronological data: a buffer's (`buffer_sequence`),
+    exploratory episodes' (`litl.latent.exploration.explore`) or both (`exploration.join`). The
+    dynamics model is fitted on every transition, the readout on every valid row.
 
     Returns:
-      statistics: ``readout_r2`` (d,) on the buffer, ``transitions``, and for the MLP its
+      statistics: ``readout_r2`` (d,) on the data, ``transitions``, and for the MLP its
       ``epochs`` and ``best_epoch`` (-1 for the linear model).
     """
     if kind not in MODELS:
         raise ValueError(f"kind={kind!r}: a latent model is one of {MODELS}")
-    encoded = encode_buffer(codec, params, buffer)
-    data = Transitions.from_sequence(encoded.latents, encoded.actions, encoded.links)
+    transitions = Transitions.from_sequence(data.latents, data.actions, data.links)
     if kind == "linear":
-        dynamics: Any = fit_linear(data, settings.linear)
+        dynamics: Any = fit_linear(transitions, settings.linear)
         epochs = best = jnp.array(-1, jnp.int32)
     else:
-        dynamics, fit = fit_mlp(key, data, settings.mlp)
+        dynamics, fit = fit_mlp(key, transitions, settings.mlp)
         epochs, best = fit.epochs, fit.best_epoch
-    readout, offset, r2 = fit_readout(
-        encoded.latents, encoded.velocities, encoded.valid, settings.linear.ridge
-    )
+    readout, offset, r2 = fit_readout(data.latents, data.velocities, data.valid, settings.linear.ridge)
     stats = {
         "readout_r2": r2,
-        "transitions": jnp.sum(data.mask).astype(jnp.int32),
+        "transitions": jnp.sum(transitions.mask).astype(jnp.int32),
         "epochs": epochs,
         "best_epoch": best,
     }
@@ -169,4 +185,14 @@ def linear_part(model: LatentModel) -> LinearDynamics:
     return model.dynamics
 
 
-__all__ = ["MODELS", "Encoded", "LatentModel", "encode_buffer", "fit_model", "fit_readout", "linear_part"]
+__all__ = [
+    "MODELS",
+    "Encoded",
+    "LatentModel",
+    "buffer_sequence",
+    "encode_buffer",
+    "fit_model",
+    "fit_readout",
+    "fit_sequence",
+    "linear_part",
+]

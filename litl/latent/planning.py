@@ -46,6 +46,10 @@ from litl.latent.model import LatentModel, linear_part
 from litl.settings import Settings
 
 GOALS = ("reach", "walk")
+# Where a shooting MPC's re-planning starts (`MPCSettings.warm_start`).
+WARM_STARTS = ("previous", "trained", "better")
+# A guide's actions in [-1, 1] become the plan's logits through arctanh, clipped here.
+GUIDE_LIMIT = 0.99
 
 
 class GoalError(UserError, ValueError):
@@ -111,6 +115,10 @@ class MPCSettings(Settings):
       action_cost: weight of mean(a²) in the cost.
       stop: reach goals: weight of the predicted final speed's term.
       model: the latent model planned through, ``mlp`` or ``linear``.
+      warm_start: where each re-planning starts (`WARM_STARTS`): ``previous``, the last plan
+        shifted by one step; ``trained``, the run's trained controller's actions rolled forward
+        from the current latent through the model (through the simulator for the oracle);
+        ``better``, whichever of the two the cost prefers.
     """
 
     KEY = "controller.latent_mpc"
@@ -121,6 +129,7 @@ class MPCSettings(Settings):
     action_cost: float = 1e-4
     stop: float = 1.0
     model: str = "mlp"
+    warm_start: str = "previous"
 
     def check(self) -> None:
         self._positive_ints("horizon", "iterations", "replan_every")
@@ -128,6 +137,8 @@ class MPCSettings(Settings):
         self._positive_numbers("action_cost", "stop", zero=True)
         if self.model not in ("mlp", "linear"):
             self._invalid("model", "must be mlp or linear")
+        if self.warm_start not in WARM_STARTS:
+            self._invalid("warm_start", f"must be one of {', '.join(WARM_STARTS)}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -293,6 +304,45 @@ def ilqr_step(logits, latent, position, model: LatentModel, goal: Goal, settings
     return better, cost(logits), cost(better)
 
 
+def guided_plan(guide, latent, time, horizon: int, model: LatentModel):
+    """(H, m) logits of the actions `guide(z, t) -> (m,)` (a trained controller) takes when rolled
+    forward from latent z at time t (s) through the latent model."""
+
+    def forward(z, k):
+        action = guide(z, time + k * model.control_dt)
+        return model.step(z, action), action
+
+    _, actions = jax.lax.scan(forward, latent, jnp.arange(horizon))
+    return jnp.arctanh(jnp.clip(actions, -GUIDE_LIMIT, GUIDE_LIMIT))
+
+
+def guided_true_plan(guide, obs, state, horizon: int, env, env_params, key):
+    """(H, m) logits of the actions `guide` takes when rolled forward through the simulator from
+    the environment state (the oracle's warm start)."""
+    r = obs.shape[0] - 2  # the observation is the observer's features and the clock
+    dt = env.robot.config.dt
+
+    def forward(carry, _):
+        obs, state = carry
+        action = guide(obs[:r], state.sim.step * dt)
+        obs, state = env.step_env(key, state, action, env_params)[:2]
+        return (obs, state), action
+
+    _, actions = jax.lax.scan(forward, (obs, state), None, length=horizon)
+    return jnp.arctanh(jnp.clip(actions, -GUIDE_LIMIT, GUIDE_LIMIT))
+
+
+def warm_start(plan, cost, settings: MPCSettings, guided):
+    """Where a re-planning starts (`MPCSettings.warm_start`): the shifted previous `plan`, the
+    trained controller's `guided` plan, or the one of the two with the lower `cost`."""
+    if settings.warm_start == "previous":
+        return plan
+    guided = guided.astype(plan.dtype)
+    if settings.warm_start == "trained":
+        return guided
+    return jnp.where(cost(guided) < cost(plan), guided, plan)
+
+
 def shift(plan):
     """The warm start for the next control step: the plan without its first action, its last
     action repeated."""
@@ -333,7 +383,9 @@ def augmented_problem(model: LatentModel, goal: Goal, rest_latent, settings: LQR
 # A whole episode under a planner, in the environment
 
 
-def _policy(env, env_params, model: LatentModel, goal: Goal, settings, key, rest_latent, oracle: bool):
+def _policy(
+    env, env_params, model: LatentModel, goal: Goal, settings, key, rest_latent, oracle: bool, policy
+):
     """act(obs, state, plan, t) -> (plan, action, its cost, whether it re-planned): the planner's
     choice at control step t (see `control`)."""
     r = model.latent_size
@@ -350,6 +402,13 @@ def _policy(env, env_params, model: LatentModel, goal: Goal, settings, key, rest
 
     else:
         every = settings.replan_every
+        horizon = settings.horizon
+
+        def guided(obs, state):
+            if oracle:
+                return guided_true_plan(policy, obs, state, horizon, env, env_params, key)
+            time = state.sim.step * env.robot.config.dt
+            return guided_plan(policy, obs[:r], time, horizon, model)
 
         def act(obs, state, plan, t):
             if oracle:
@@ -358,6 +417,8 @@ def _policy(env, env_params, model: LatentModel, goal: Goal, settings, key, rest
                 cost = lambda u: plan_cost(u, obs[:r], where(state), model, goal, settings)[0]
 
             def replan(plan):
+                if getattr(settings, "warm_start", "previous") != "previous":
+                    plan = warm_start(plan, cost, settings, guided(obs, state))
                 if isinstance(settings, ILQRSettings):
                     better, _, after = ilqr_step(plan, obs[:r], where(state), model, goal, settings)
                 else:
@@ -380,12 +441,15 @@ def control(
     key,
     steps: int | None = None,
     oracle: bool = False,
+    guide=None,
 ) -> dict:
     """One episode of `env` (a trained run's environment, `litl.replay.environment`, with
     ``hold`` the model's control step) under the planner `settings` (`MPCSettings` or
     `LQRSettings`) toward `goal`. Pure and jittable with `goal`, `settings`, `steps` and `oracle`
     static. `oracle`: MPC plans through the simulator itself (`true_plan_cost`), not the model
-    (the model then only gives `predicted`).
+    (the model then only gives `predicted`). `guide(z, t) -> (m,)`: the run's trained controller
+    (features and time to actions), from which `MPCSettings.warm_start` ``trained`` and
+    ``better`` start each re-planning.
 
     Returns:
       positions (T + 1,) the task point along the goal's axis from the start; predicted (T,) the
@@ -400,7 +464,9 @@ def control(
     where = lambda state: _robot(env, state)[goal.axis]
     obs, state = env.reset(key, env_params)
     m = env.num_actions
-    act = _policy(env, env_params, model, goal, settings, key, obs[:r], oracle)
+    if getattr(settings, "warm_start", "previous") != "previous" and guide is None:
+        raise ValueError(f"warm_start={settings.warm_start!r} needs the trained controller: pass guide")
+    act = _policy(env, env_params, model, goal, settings, key, obs[:r], oracle, guide)
     horizon = getattr(settings, "horizon", 1)
     plan0 = jnp.zeros((horizon, m), obs.dtype)
 
@@ -436,9 +502,12 @@ def model_steps(settings) -> float:
     """Model evaluations (forward passes) of one control step's planning: H (iterations + 1) per
     re-planning for MPC (its gradients add about twice that); for iLQR H (1 + iterations (1 +
     line-search steps)) forward passes plus H · iterations Jacobians; 0 for LQR (solved once per
-    episode: `horizon` Riccati steps)."""
+    episode: `horizon` Riccati steps). A warm start by the trained controller adds H (``trained``)
+    or 3H (``better``: its rollout and both plans' costs)."""
     if isinstance(settings, MPCSettings):
-        return settings.horizon * (settings.iterations + 1) / settings.replan_every
+        # the trained controller's rollout through the model; for `better` both plans' costs too
+        warm = {"previous": 0, "trained": 1, "better": 3}[settings.warm_start]
+        return settings.horizon * (settings.iterations + 1 + warm) / settings.replan_every
     if isinstance(settings, ILQRSettings):
         passes = 1 + settings.iterations * (1 + len(STEPS))
         return settings.horizon * passes / settings.replan_every
