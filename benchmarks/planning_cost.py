@@ -2,12 +2,14 @@
 
     python benchmarks/planning_cost.py RUN_DIR                     # latent_mpc, latent_lqr, rest, oracle_mpc
     python benchmarks/planning_cost.py RUN_DIR --seeds 0 --repeats 5 --set horizon=5
+    python benchmarks/planning_cost.py RUN_DIR --planners rest,latent_mpc --data both  # + exploration
 
 For each planner, `litl.latent.control`'s program (per seed: the model's fit on the replay
 buffer, then one episode of `control_steps` control steps toward --goal), all chosen seeds
 vmapped, is compiled once and called --repeats times: compile time apart, the median call, and
 that median per control step and seed. The fit is inside every call, so `rest` (the fit and an
-episode without planning) is the floor the planners add to. Peak RSS is the process's at the
+episode without planning) is the floor the planners add to; with `--data explored` or `both`
+the exploratory episodes (default `Exploration`) are inside every call too. Peak RSS is the process's at the
 end (every program compiled).
 """
 
@@ -26,7 +28,8 @@ import litl  # noqa: F401  (before JAX starts: XLA's determinism flag, litl.back
 
 
 def main() -> None:
-    from litl.latent.control import Episode, load, planner_settings
+    from litl.latent.control import DATA, Episode, load, planner_settings
+    from litl.latent.exploration import Exploration
     from litl.latent.planning import Goal
 
     parser = argparse.ArgumentParser(
@@ -38,8 +41,12 @@ def main() -> None:
     parser.add_argument("--seeds", type=lambda s: [int(x) for x in s.split(",")], default=[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--set", action="append", default=[], help="latent_mpc / oracle_mpc settings")
+    parser.add_argument("--data", default="buffer", choices=DATA, help="what the model is fitted on")
     args = parser.parse_args()
-    robot, config, algorithm, all_seeds, state = load(args.run_dir)
+    robot, config, algorithm, all_seeds, state = load(
+        args.run_dir, latent=args.data != "explored", features=True
+    )
+    exploration = Exploration() if args.data != "buffer" else None
     state = jax.tree.map(
         lambda leaf: leaf[jax.numpy.asarray([all_seeds.index(s) for s in args.seeds])], state
     )
@@ -48,7 +55,7 @@ def main() -> None:
     for planner in args.planners.split(","):
         overrides = args.set if planner in ("latent_mpc", "oracle_mpc") else []
         settings = None if planner == "rest" else planner_settings(planner, overrides)
-        episode = Episode(robot, config, algorithm, goal, planner, settings)
+        episode = Episode(robot, config, algorithm, goal, planner, settings, None, args.data, exploration)
         program, arguments = episode.program(state, args.seeds)
         start = time.perf_counter()
         compiled = program.lower(*arguments).compile()
@@ -69,7 +76,15 @@ def main() -> None:
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(
         json.dumps(
-            {"goal": args.goal, "seeds": args.seeds, "rows": rows, "peak_rss_mb": round(peak_mb)}, indent=1
+            {
+                "goal": args.goal,
+                "seeds": args.seeds,
+                "data": args.data,
+                "settings": args.set,
+                "rows": rows,
+                "peak_rss_mb": round(peak_mb),
+            },
+            indent=1,
         )
     )
 

@@ -1,6 +1,7 @@
 """The plan's tests (plan.md, written before the runs: 12 in the first round, 6 in the second, 4
-in the third, 2 in the fourth, 14 in the fifth, 4 in the sixth) and its descriptive cells, from results/ (the
-biped) and arm/results/ (the fifth round's arm).
+in the third, 2 in the fourth, 14 in the fifth, 4 in the sixth, 13 in the seventh) and its
+descriptive cells, from results/ (the biped), arm/results/ (the fifth and seventh rounds' arm)
+and shifted/results/ (the sixth and seventh rounds' shifted biped).
 
     python docs/assets/2026-12-07/latent-control/judge.py > docs/assets/2026-12-07/latent-control/judge.txt
 
@@ -304,6 +305,88 @@ def sixth_round() -> None:
     judge("The sixth round's family (walk -x with room)", family, drop_missing=True)
 
 
+SEVENTH = {  # the seventh round's latent_mpc cells: name -> what the model was fitted on
+    "latent_mpc": "buffer (fifth/sixth round)",
+    "latent_mpc-both": "buffer + 32 exploratory episodes",
+    "latent_mpc-explored": "32 exploratory episodes",
+    "latent_mpc-buffer-better": "buffer, warm_start=better",
+}
+
+
+def seventh_round() -> None:
+    print("\nSeventh round: latent_mpc with the model fitted on exploratory episodes, and warm-started")
+    print("by the trained MLP. arm: final tip error, seeds within 0.01; shifted biped: displacement")
+    print("toward -x. Then the model: readout R2, one-step position RMS / step RMS, transitions,")
+    print("compile s, wall ms per control step and seed (exploration and fit included in compile+run)")
+    rows = [(ARM, obs, g) for obs in ("vae", "pca", "kmeans") for g in ("reach0.46", "reach0.54")]
+    rows += [(SHIFTED, obs, "walk-1") for obs in ("vae", "kmeans")]
+    for root, obs, goal in rows:
+        for name, data in SEVENTH.items():
+            found = load(obs, name, goal, root)
+            if found is None:
+                continue
+            summary, values = found
+            within = f" {int(np.sum(values < 0.01))}/{len(values)}" if goal.startswith("reach") else ""
+            seeds = summary["seeds"]
+            r2 = np.mean([np.mean(s["readout_r2"]) for s in seeds])
+            miss = np.mean([s["one_step_position_rms"] for s in seeds])
+            step = np.mean([s["one_step_motion_rms"] for s in seeds])
+            where = "arm" if root == ARM else "shifted"
+            print(
+                f"  {where:7s} {obs:6s} {goal:9s} {data:34s} {interval(values, 4)}{within}  R2 {r2:.2f}  "
+                f"{miss:.4f} / {step:.4f}  n {seeds[0]['transitions']}  {summary['compile_s']:.0f} s  "
+                f"{summary['wall_s_per_control_step'] * 1e3:.0f} ms"
+            )
+    family = []
+    for goal in ("reach0.46", "reach0.54"):
+        cell = lambda obs, name, goal=goal: (obs, name, goal, ARM)  # noqa: E731
+        g = ARM_GOALS[goal]
+        family += [
+            (f"arm {g}: vae both - buffer", cell("vae", "latent_mpc-both"), cell("vae", "latent_mpc"), True),
+            (
+                f"arm {g}: vae better - previous",
+                cell("vae", "latent_mpc-buffer-better"),
+                cell("vae", "latent_mpc"),
+                True,
+            ),
+            (
+                f"arm {g}: explored vae - kmeans",
+                cell("vae", "latent_mpc-explored"),
+                cell("kmeans", "latent_mpc-explored"),
+                False,
+            ),
+            (
+                f"arm {g}: explored vae - pca",
+                cell("vae", "latent_mpc-explored"),
+                cell("pca", "latent_mpc-explored"),
+                False,
+            ),
+            (f"arm {g}: vae both - rest", cell("vae", "latent_mpc-both"), cell("vae", "rest"), True),
+        ]
+    cell = lambda obs, name: (obs, name, "walk-1", SHIFTED)  # noqa: E731
+    family += [
+        (
+            "shifted walk:-1: vae both - buffer",
+            cell("vae", "latent_mpc-both"),
+            cell("vae", "latent_mpc"),
+            True,
+        ),
+        (
+            "shifted walk:-1: vae better - previous",
+            cell("vae", "latent_mpc-buffer-better"),
+            cell("vae", "latent_mpc"),
+            True,
+        ),
+        (
+            "shifted walk:-1: explored vae - kmeans",
+            cell("vae", "latent_mpc-explored"),
+            cell("kmeans", "latent_mpc-explored"),
+            False,
+        ),
+    ]
+    judge("The seventh round's family (is the model the gap?)", family, drop_missing=True)
+
+
 if __name__ == "__main__":
     cells()
     tests()
@@ -312,3 +395,4 @@ if __name__ == "__main__":
     fourth_round()
     fifth_round()
     sixth_round()
+    seventh_round()
