@@ -168,7 +168,7 @@ def run(
         exploration = Exploration()
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
-    planned = planner != "trained"
+    planned = planner not in ("trained", "rest")  # rest plans nothing: any observer will do
     robot, config, algorithm, all_seeds, state = load(
         run_dir, latent=planned and data != "explored", features=planned
     )
@@ -281,12 +281,17 @@ class Episode:
         kind = getattr(self.settings, "model", "linear" if self.planner == "latent_lqr" else "mlp")
         control_dt = self.stride * robot.config.dt
         parts = []
-        if self.data != "explored":
-            parts.append(buffer_sequence(self.algorithm.observer.learner.latent, observer, buffer))
+        learner = self.algorithm.observer.learner
+        if self.data != "explored" and learner is not None and learner.latent is not None:
+            parts.append(buffer_sequence(learner.latent, observer, buffer))
         if self.data != "buffer":
             explored = jax.random.fold_in(key, 1)  # the exploration's own draws
             parts.append(explore(env, params, explored, self.exploration, self.control_steps))
-        model, fit = fit_sequence(join(*parts), key, self.config.loop.dynamics, control_dt, kind)
+        # The model's fit (and its statistics) wherever there are data for it; `rest` on a run
+        # without a latent codec has none, and needs none.
+        fit = None
+        if parts:
+            model, fit = fit_sequence(join(*parts), key, self.config.loop.dynamics, control_dt, kind)
         if self.planner != "rest":
             oracle = self.planner == "oracle_mpc"
             module = self.algorithm.controller

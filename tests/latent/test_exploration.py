@@ -154,3 +154,11 @@ def test_bad_exploration_requests_are_refused_before_anything_is_written(
     assert stop.value.code == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_rest_needs_no_model_and_runs_on_any_observer(kmeans_run, tmp_path):
+    out = tmp_path / "rest.json"
+    assert cli.main([str(kmeans_run), "--goal", "reach:0.4", "--planner", "rest", "--out", str(out)]) == 0
+    for entry in json.loads(out.read_text())["seeds"]:
+        assert "readout_r2" not in entry  # no model was fitted: the buffer has no latent codec
+        assert entry["final"] == pytest.approx(entry["positions"][-1], abs=1e-6)
