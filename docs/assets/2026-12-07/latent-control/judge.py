@@ -321,6 +321,10 @@ def seventh_round() -> None:
     rows = [(ARM, obs, g) for obs in ("vae", "pca", "kmeans") for g in ("reach0.46", "reach0.54")]
     rows += [(SHIFTED, obs, "walk-1") for obs in ("vae", "kmeans")]
     for root, obs, goal in rows:
+        rest = load(obs, "rest", goal, root)
+        if rest is not None and obs == "kmeans":
+            where = "arm" if root == ARM else "shifted"
+            print(f"  {where:7s} {obs:6s} {goal:9s} {'rest':34s} {interval(rest[1], 4)}")
         for name, data in SEVENTH.items():
             found = load(obs, name, goal, root)
             if found is None:
@@ -337,6 +341,25 @@ def seventh_round() -> None:
                 f"{miss:.4f} / {step:.4f}  n {seeds[0]['transitions']}  {summary['compile_s']:.0f} s  "
                 f"{summary['wall_s_per_control_step'] * 1e3:.0f} ms"
             )
+    print("\nHeld-out exploratory episodes (heldout.py; 16 per seed): RMS error of the task point's")
+    print("predicted displacement along x, h = 1, 5, 20 control steps ahead, mean over seeds [90% CI],")
+    print("beside the zero-motion prediction's (the RMS displacement itself)")
+    for where in ("arm", "shifted"):
+        for obs in ("vae", "pca", "kmeans"):
+            path = pathlib.Path(__file__).parent / where / "heldout" / f"{obs}.json"
+            if not path.exists():
+                continue
+            found = json.loads(path.read_text())
+            for source, parts in found["sources"].items():
+                errors = np.asarray(parts["displacement"])
+                texts = [interval(errors[:, i], 4) for i in range(errors.shape[1])]
+                still = np.mean(parts["zero_motion"], axis=0)
+                print(
+                    f"  {where:7s} {obs:6s} {source:8s} "
+                    + "  ".join(f"h={h}: {t}" for h, t in zip(found["horizons"], texts, strict=True))
+                    + "   zero motion "
+                    + " ".join(f"{v:.4f}" for v in still)
+                )
     family = []
     for goal in ("reach0.46", "reach0.54"):
         cell = lambda obs, name, goal=goal: (obs, name, goal, ARM)  # noqa: E731
