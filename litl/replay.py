@@ -85,6 +85,7 @@ def load_run_config(run_dir: pathlib.Path):
         material = Material(**saved.get("material", {}))
         if material != robot.material:
             robot = robot.with_material(material)
+        robot = _placed(robot, saved.get("origin"), run_dir)
         # In its world and with its design space, as `litl.loop.run` put it.
         robot = litl.designs.apply(litl.worlds.put(robot, config.world), config.design)
     # The run's strain limit as it simulated; runs from before the limit (no key) had none.
@@ -101,6 +102,25 @@ def load_run_config(run_dir: pathlib.Path):
             f"({recorded}); was the robot's definition changed since the run?"
         )
     return robot, config
+
+
+def _placed(robot, origin, run_dir):
+    """The robot where the run stood it: shifted along x (`Robot.shifted`) to the lower corner
+    of its rest shape that run.json records (`origin`; runs from before it was recorded stood
+    where their definition placed them). A `ReplayError` where it stood elsewhere along another
+    axis, which no shift litl makes explains."""
+    import numpy as np
+
+    if origin is None:
+        return robot
+    here = robot.layout.bounds()[0]
+    offset = np.asarray(origin, float) - np.asarray(here, float)
+    if np.any(np.abs(offset[1:]) > 1e-6):
+        raise ReplayError(
+            f"the robot of {run_dir} stood at {origin}, the {robot.name!r} rebuilt by name at "
+            f"{[round(float(x), 6) for x in here]}: moved along more than x, it cannot be rebuilt"
+        )
+    return robot.shifted(float(offset[0])) if abs(offset[0]) > 1e-6 else robot
 
 
 def chosen_seed(config, seed: int | None) -> int:

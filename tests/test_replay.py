@@ -119,3 +119,32 @@ def test_a_run_from_before_the_strain_limit_replays_without_it(finished_run, tmp
     (older / "run.json").write_text(json.dumps(saved))
     robot, _ = load_run_config(older)
     assert robot.config.max_stretch is None
+
+
+def test_a_shifted_robot_run_from_python_replays_where_it_stood(tmp_path):
+    from litl.replay import load_run_config
+
+    shifted = tiny_robot().shifted(0.2)
+    run_dir = tmp_path / "shifted"
+    run(
+        shifted,
+        tiny_config(observer={"kind": "kmeans"}, seeds=1, loop={"episodes": 1}),
+        run_dir,
+        progress=False,
+    )
+    robot, _ = load_run_config(run_dir)  # no .hydra: the robot is rebuilt by name, then placed
+    np.testing.assert_allclose(robot.layout.positions, shifted.layout.positions, atol=1e-12)
+    final = json.loads((run_dir / "final.json").read_text())
+    summary = replay(run_dir, out=tmp_path / "walk.gif")
+    assert summary["task_loss"] == pytest.approx(final[0]["task_loss"], rel=1e-5, abs=1e-8)
+    # a run.json from before the origin was recorded rebuilds the robot where its definition is
+    saved = json.loads((run_dir / "run.json").read_text())
+    del saved["origin"]
+    (run_dir / "run.json").write_text(json.dumps(saved))
+    robot, _ = load_run_config(run_dir)
+    np.testing.assert_allclose(robot.layout.positions, tiny_robot().layout.positions, atol=1e-12)
+    # a robot that stood elsewhere along y is not one litl can rebuild: refused, saying so
+    saved["origin"] = [0.2, 0.5]
+    (run_dir / "run.json").write_text(json.dumps(saved))
+    with pytest.raises(ReplayError, match="moved along more than x"):
+        load_run_config(run_dir)

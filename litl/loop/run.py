@@ -100,6 +100,8 @@ def settings(robot: Robot, record: dict, algorithm) -> dict:
         "material": json.loads(json.dumps(dataclasses.asdict(robot.material))),
         "max_stretch": robot.config.max_stretch,  # the simulator's strain limit (None: none)
         "task": task_record(robot.task),  # the robot's own, or its world's (push_box)
+        # the lower corner of its rest shape: where it stands (`Robot.shifted` moves it)
+        "origin": [float(x) for x in robot.layout.bounds()[0]],
         "steps": algorithm.steps,
         "config": json.loads(json.dumps(record)),
         "observer": {"learned": algorithm.observer.learned, "reads": list(algorithm.observer.reads)},

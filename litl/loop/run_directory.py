@@ -126,6 +126,8 @@ def claim(run_dir: pathlib.Path, wanted: dict, config_files: dict[str, str]) -> 
         found = {**found, "config": recorded, "observer": wanted["observer"]}
         if "task" not in found:  # a run from before run.json recorded the task: it ran this one
             found["task"] = wanted.get("task")
+        if "origin" not in found:  # nor where the robot stood (robots could not be shifted)
+            found["origin"] = wanted.get("origin")
         if "max_stretch" not in found:  # a run from before the strain limit: purely elastic
             found["max_stretch"] = None
             found["material"] = {**found.get("material", {}), "max_stretch": math.inf}
