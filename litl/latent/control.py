@@ -61,18 +61,31 @@ def planner_settings(planner: str, overrides: list[str]):
     from litl.latent.planning import PLANNERS, MPCSettings
 
     cls = PLANNERS.get(planner, MPCSettings)  # oracle_mpc: the MPC's settings
-    values = {}
-    names = {f.name: f for f in dataclasses.fields(cls)}
+    return overridden(cls(), overrides, "--set", planner)
+
+
+def overridden(base, overrides, flag: str, what: str):
+    """The frozen settings `base` with `KEY=VALUE` overrides, each value read as its field's
+    default's type (a tuple of ints as ``64,64``); a `ControlError` naming `flag` for an unknown
+    key or a value of the wrong type, and the settings' own error for one out of range."""
+    names = [f.name for f in dataclasses.fields(base)]
+    values: dict[str, Any] = {}
     for item in overrides:
         key, sep, text = item.partition("=")
         if not sep or key not in names:
-            raise ControlError(f"--set {item!r}: write KEY=VALUE with KEY one of {sorted(names)} ({planner})")
-        default = getattr(cls(), key)
+            raise ControlError(f"{flag} {item!r}: write KEY=VALUE with KEY one of {sorted(names)} ({what})")
+        default = getattr(base, key)
         try:
-            values[key] = type(default)(text) if not isinstance(default, str) else text
+            if isinstance(default, str):
+                values[key] = text
+            elif isinstance(default, tuple):
+                values[key] = tuple(int(part) for part in text.split(","))
+            else:
+                values[key] = type(default)(text)
         except ValueError:
-            raise ControlError(f"--set {item!r}: {key} takes a {type(default).__name__}") from None
-    return cls(**values)
+            kind = "comma-separated ints" if isinstance(default, tuple) else type(default).__name__
+            raise ControlError(f"{flag} {item!r}: {key} takes {kind}") from None
+    return dataclasses.replace(base, **values)
 
 
 def load(run_dir: pathlib.Path, latent: bool = True, features: bool = False):
@@ -134,6 +147,7 @@ def run(
     control_steps: int | None = None,
     data: str = "buffer",
     exploration=None,
+    model_overrides=(),
 ) -> dict:
     """Plan toward `goal` in every seed of the run (see the module docstring); the summary
     written to `out` (its ``failures`` name the seeds whose plans were not finite); `animate`:
@@ -141,13 +155,16 @@ def run(
     `python -m litl.replay`); `control_steps`: the episode's length (None: the run's rollout's;
     longer shows whether a reach ends at rest; not for ``trained``, which replays the run's);
     `data`: what the latent model is fitted on (`DATA`); `exploration`: the exploratory episodes'
-    `litl.latent.exploration.Exploration` (default settings where `data` needs them)."""
+    `litl.latent.exploration.Exploration` (default settings where `data` needs them);
+    `model_overrides`: ``KEY=VALUE`` changes to the MLP model's training (`loop.dynamics.mlp`,
+    e.g. ``rollout=5``)."""
     import jax
     import jax.numpy as jnp
 
     from litl.latent.exploration import Exploration
     from litl.latent.planning import PLANNERS, Goal
     from litl.models.controller import MLPController
+    from litl.settings.dynamics import MLPSettings
 
     run_dir = pathlib.Path(run_dir)
     if planner not in (*PLANNERS, *REFERENCES):
@@ -168,6 +185,8 @@ def run(
         exploration = Exploration()
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
+    model_overrides = list(model_overrides)
+    overridden(MLPSettings(), model_overrides, "--model", "loop.dynamics.mlp")  # refused before loading
     planned = planner not in ("trained", "rest")  # rest plans nothing: any observer will do
     robot, config, algorithm, all_seeds, state = load(
         run_dir, latent=planned and data != "explored", features=planned
@@ -185,7 +204,11 @@ def run(
     if missing:
         raise ControlError(f"--seeds {missing}: the run has seeds {all_seeds}")
     state = jax.tree.map(lambda leaf: leaf[jnp.asarray([all_seeds.index(s) for s in chosen])], state)
-    episode = Episode(robot, config, algorithm, parsed, planner, settings, control_steps, data, exploration)
+    mlp = overridden(config.loop.dynamics.mlp, model_overrides, "--model", "loop.dynamics.mlp")
+    dynamics = dataclasses.replace(config.loop.dynamics, mlp=mlp)
+    episode = Episode(
+        robot, config, algorithm, parsed, planner, settings, control_steps, data, exploration, dynamics
+    )
     if planner == "trained":
         results, fits, times = _trained(robot, algorithm, state, episode.stride, parsed.axis), None, {}
     else:
@@ -228,6 +251,7 @@ class Episode:
     steps: int | None = None  # control steps of the episode; None: the run's rollout's
     data: str = "buffer"  # what the latent model is fitted on (`DATA`)
     exploration: Any = None  # the exploratory episodes' `Exploration` (data explored or both)
+    dynamics: Any = None  # the latent model's settings (`DynamicsConfig`; None: the run's)
 
     @property
     def stride(self) -> int:
@@ -291,7 +315,8 @@ class Episode:
         # without a latent codec has none, and needs none.
         fit = None
         if parts:
-            model, fit = fit_sequence(join(*parts), key, self.config.loop.dynamics, control_dt, kind)
+            settings = self.dynamics or self.config.loop.dynamics
+            model, fit = fit_sequence(join(*parts), key, settings, control_dt, kind)
         if self.planner != "rest":
             oracle = self.planner == "oracle_mpc"
             module = self.algorithm.controller
@@ -331,6 +356,7 @@ def _summary(run_dir, episode: Episode, chosen, results, fits, times) -> dict:
         # what the latent model was fitted on, and the exploratory episodes' settings
         "data": episode.data if episode.planner != "trained" else None,
         "exploration": dataclasses.asdict(episode.exploration) if episode.exploration else None,
+        "model_settings": dataclasses.asdict((episode.dynamics or episode.config.loop.dynamics).mlp),
         "control_dt": episode.stride * episode.robot.config.dt,
         "control_steps": episode.control_steps,
         "compile_s": times.get("compile_s"),
@@ -435,6 +461,13 @@ def _parser() -> argparse.ArgumentParser:
         help="what the latent model is fitted on: the run's buffer, exploratory episodes, or both",
     )
     parser.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting of the MLP latent model's training (loop.dynamics.mlp), e.g. rollout=5",
+    )
+    parser.add_argument(
         "--explore-episodes", type=int, default=None, help="exploratory episodes (default 32)"
     )
     parser.add_argument(
@@ -469,6 +502,7 @@ def main(argv: list[str] | None = None) -> int:
             args.control_steps,
             args.data,
             _exploration(args.explore_episodes, args.explore_hold),
+            args.model,
         )
     for entry in summary["seeds"]:
         what = (

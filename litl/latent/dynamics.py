@@ -199,8 +199,10 @@ class MLPFit:
     """What `fit_mlp` reports besides the model.
 
     Attributes:
-      train_loss: () the best epoch's mean squared error per latent on the training transitions.
-      validation_loss: () its mean squared error per latent on the validation ones.
+      train_loss: () the best epoch's mean squared error per latent on the training transitions
+        (with `MLPSettings.rollout` K > 1: the mean over k = 1 ... K of the k-step error, from
+        the starts of K training transitions in a chain).
+      validation_loss: () the same on the validation ones.
       best_epoch: () int32 the epoch whose parameters were kept (0: the initial ones).
       epochs: () int32 epochs run before the early stop (or max_epochs).
       train_count: () int32 training transitions.
@@ -215,12 +217,15 @@ class MLPFit:
     validation_count: jnp.ndarray
 
 
-def random_split(key, mask, validation_fraction: float):
+def random_split(key, mask, validation_fraction: float, block: int = 1):
     """(train (N,) bool, validation (N,) bool): a random split of the True rows of `mask`,
-    round(fraction · n) of them (at least 1, at most n - 1) to validation."""
+    round(fraction · n) of them (at least 1, at most n - 1) to validation, drawn by blocks of
+    `block` consecutive rows (1: row by row), so that multi-step windows lie mostly on one side."""
     count = jnp.sum(mask)
     n_validation = jnp.clip(jnp.round(validation_fraction * count), 1, jnp.maximum(count - 1, 1))
-    draws = jnp.where(mask, jax.random.uniform(key, mask.shape), jnp.inf)
+    uniform = jax.random.uniform(key, mask.shape)
+    uniform = uniform[(jnp.arange(mask.shape[0]) // block) * block]  # a block shares its draw
+    draws = jnp.where(mask, uniform, jnp.inf)
     rank = jnp.argsort(jnp.argsort(draws))  # the real rows get ranks 0 ... count - 1
     validation = mask & (rank < n_validation)
     return mask & ~validation, validation
@@ -251,10 +256,48 @@ def _mse(model: MLPDynamics, data: Transitions, mask):
     return jnp.sum(squared) / jnp.maximum(jnp.sum(mask) * data.latent_size, 1)
 
 
+def rollout_windows(data: Transitions, mask, steps: int):
+    """(N,) bool: the rows that start `steps` transitions in a chain, each a row of `mask` and
+    each starting where the one before ended (row i + 1's z is row i's z', as
+    `Transitions.from_sequence` lays out one rollout; the values are copies, so the test is
+    exact)."""
+    n = mask.shape[0]
+    follows = jnp.all(data.next_latents[:-1] == data.latents[1:], axis=-1)  # row i+1 after row i
+    chained = jnp.concatenate([follows, jnp.zeros(1, bool)])
+    usable = mask
+    for j in range(1, steps):
+        ahead = jnp.concatenate([mask[j:] & chained[j - 1 : n - 1], jnp.zeros(j, bool)])
+        usable = usable & ahead
+    return usable
+
+
+def _rollout_mse(model: MLPDynamics, data: Transitions, starts, steps: int):
+    """() the mean over k = 1 ... `steps` of the k-step prediction's squared error per latent,
+    rolled through the model under the recorded actions from the rows `starts`
+    (`rollout_windows`)."""
+    if steps == 1:
+        return _mse(model, data, starts)
+    n = starts.shape[0]
+    index = jnp.minimum(jnp.arange(n)[:, None] + jnp.arange(steps)[None], n - 1)  # (N, K)
+
+    def rolled(start, rows):
+        def forward(z, row):
+            z = model.step(z, data.actions[row])
+            return z, jnp.mean((z - data.next_latents[row]) ** 2)
+
+        return jnp.mean(jax.lax.scan(forward, start, rows)[1])
+
+    errors = jax.vmap(rolled)(data.latents, index)
+    return jnp.sum(jnp.where(starts, errors, 0)) / jnp.maximum(jnp.sum(starts), 1)
+
+
 def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tuple[MLPDynamics, MLPFit]:
     """Train the residual MLP on a random train/validation split of the masked transitions.
 
-    Full-batch Adam (AdamW with `weight_decay`), one step per epoch; the parameters of the epoch
+    Full-batch Adam (AdamW with `weight_decay`), one step per epoch, on the one-step error or,
+    with `settings.rollout` K > 1, on the mean of the 1- to K-step errors of the model rolled
+    forward under the recorded actions (the split then by blocks of K transitions, and only
+    windows of K chained transitions on one side count); the parameters of the epoch
     with the lowest validation loss are kept, and training stops after `patience` epochs without
     one. Normalization (inputs, output scale) comes from the training rows. Jittable and
     vmappable over seeds (key and data batched; the loop runs until every seed has stopped,
@@ -272,7 +315,11 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
     data.check(minimum=2)
     dtype = data.latents.dtype
     split_key, init_key = jax.random.split(key)
-    train, validation = random_split(split_key, data.mask, settings.validation_fraction)
+    steps = settings.rollout
+    train, validation = random_split(split_key, data.mask, settings.validation_fraction, steps)
+    # K-step windows wholly on one side of the split (K = 1: the rows themselves).
+    train_starts = rollout_windows(data, train, steps)
+    validation_starts = rollout_windows(data, validation, steps)
     inputs = jnp.concatenate([data.latents, data.actions], axis=1)
     mean = _masked_mean(inputs, train)
     spread = jnp.sqrt(_masked_mean((inputs - mean) ** 2, train))
@@ -286,7 +333,8 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
         output_scale=jnp.where(delta_spread > 0, delta_spread, 1),
     )
     optimizer = optax.adamw(settings.learning_rate, weight_decay=settings.weight_decay)
-    loss = lambda layers: _mse(model.replace(layers=layers), data, train)
+    loss = lambda layers: _rollout_mse(model.replace(layers=layers), data, train_starts, steps)
+    checked_loss = lambda layers: _rollout_mse(model.replace(layers=layers), data, validation_starts, steps)
 
     def epoch(carry):
         layers, opt_state, best, best_loss, best_epoch, index = carry
@@ -294,7 +342,7 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
         updates, opt_state = optimizer.update(grads, opt_state, layers)
         layers = optax.apply_updates(layers, updates)
         index = index + 1
-        checked = _mse(model.replace(layers=layers), data, validation)
+        checked = checked_loss(layers)
         better = checked < best_loss  # a NaN loss is never better
         best = jax.tree.map(lambda new, old: jnp.where(better, new, old), layers, best)
         return (
@@ -310,12 +358,12 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
         *_, best_epoch, index = carry
         return (index < settings.max_epochs) & (index - best_epoch < settings.patience)
 
-    start = _mse(model, data, validation)
+    start = checked_loss(model.layers)
     initial = (model.layers, optimizer.init(model.layers), model.layers, start, jnp.int32(0), jnp.int32(0))
     _, _, best, best_loss, best_epoch, epochs = jax.lax.while_loop(going, epoch, initial)
     model = model.replace(layers=best)
     return model, MLPFit(
-        train_loss=_mse(model, data, train),
+        train_loss=_rollout_mse(model, data, train_starts, steps),
         validation_loss=best_loss,
         best_epoch=best_epoch,
         epochs=epochs,

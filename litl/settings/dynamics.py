@@ -40,6 +40,9 @@ class MLPSettings(Settings):
       validation_fraction: share of the transitions held out for validation (at least one, and
         at least one kept for training).
       weight_decay: AdamW's decoupled weight decay (0: plain Adam).
+      rollout: K, the control steps each training start is rolled forward through the model
+        under the recorded actions; the loss is the mean over k = 1 ... K of the k-step error
+        (1: the one-step error). The split holds out blocks of K consecutive transitions.
     """
 
     KEY = "loop.dynamics.mlp"
@@ -49,6 +52,7 @@ class MLPSettings(Settings):
     patience: int = 100
     validation_fraction: float = 0.2
     weight_decay: float = 0.0
+    rollout: int = 1
 
     def check(self) -> None:
         if not self.widths or any(
@@ -57,7 +61,7 @@ class MLPSettings(Settings):
             self._invalid("widths", "must be one or more positive integers")
         self._positive_numbers("learning_rate")
         self._positive_numbers("weight_decay", zero=True)
-        self._positive_ints("max_epochs", "patience")
+        self._positive_ints("max_epochs", "patience", "rollout")
         if not (0 < self.validation_fraction < 1):
             self._invalid("validation_fraction", "must be in (0, 1)")
 

@@ -263,6 +263,8 @@ def _today(flat: dict[str, Any]) -> dict[str, Any]:
             flat[f"{part}.module"] = None
     flat.setdefault("method", "litl")
     flat.setdefault("controller.module", None)  # controllers of one's own came on 2026-11-27
+    if "loop.dynamics.mlp.widths" in flat:  # multi-step training came on 2026-12-07
+        flat.setdefault("loop.dynamics.mlp.rollout", 1)
     if "observer.pca.components" in flat:
         flat.setdefault("observer.pca.field", flat.get("observer.vae.field", "mass_weighted"))
     return flat

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from litl.latent import LinearSettings, MLPSettings, Transitions, fit_linear, fit_mlp
-from litl.latent.dynamics import LinearDynamics, random_split
+from litl.latent.dynamics import LinearDynamics, MLPDynamics, _rollout_mse, random_split, rollout_windows
 from litl.settings import SettingsError
 
 
@@ -166,3 +166,62 @@ def test_bad_data_and_settings_are_refused_by_name():
         MLPSettings(widths=(8, 0))
     with pytest.raises(SettingsError, match="loop.dynamics.mlp.max_epochs"):
         MLPSettings(max_epochs=0)
+
+
+def chained(n_rollouts: int, steps: int, key):
+    """Transitions of `n_rollouts` rollouts of `nonlinear_toy`'s system, `steps` each, laid out
+    as `Transitions.from_sequence` lays out a buffer (no transition links one rollout to the next)."""
+    _, step = nonlinear_toy(2, key)
+    z0 = jax.random.uniform(key, (n_rollouts, 2), minval=-1.5, maxval=1.5)
+    actions = jax.random.uniform(jax.random.fold_in(key, 1), (n_rollouts, steps, 1), minval=-1, maxval=1)
+
+    def roll(z, acts):
+        return jnp.concatenate([z[None], jax.lax.scan(lambda z, a: (step(z, a), step(z, a)), z, acts)[1]])
+
+    latents = jax.vmap(roll)(z0, actions).reshape(-1, 2)
+    actions = jnp.concatenate([jnp.zeros((n_rollouts, 1, 1)), actions], axis=1).reshape(-1, 1)
+    links = jnp.ones((n_rollouts, steps + 1), bool).at[:, 0].set(False).reshape(-1)
+    return Transitions.from_sequence(latents, actions, links), step
+
+
+def test_multistep_windows_follow_one_rollout_and_one_side_of_the_split():
+    data, _ = chained(2, 5, jax.random.key(7))  # rows 0-4 one rollout, row 5 the gap, rows 6-10
+    windows = np.asarray(rollout_windows(data, data.mask, 3))
+    np.testing.assert_array_equal(np.flatnonzero(windows), [0, 1, 2, 6, 7, 8])
+    held = data.mask.at[1].set(False)  # a row on the other side of the split breaks its windows
+    np.testing.assert_array_equal(np.flatnonzero(rollout_windows(data, held, 3)), [2, 6, 7, 8])
+    # the split by blocks of K holds out whole blocks (but the one the count cuts)
+    mask = jnp.ones(40, bool)
+    _, validation = random_split(jax.random.key(0), mask, 0.25, block=4)
+    blocks = np.asarray(validation).reshape(10, 4).sum(axis=1)
+    assert int(validation.sum()) == 10 and np.sum(blocks == 4) == 2 and np.sum(blocks % 4 != 0) == 1
+
+
+def test_the_multistep_loss_is_the_mean_of_the_rolled_errors():
+    data, step = chained(1, 6, jax.random.key(8))
+    model = MLPDynamics(
+        layers=((jnp.zeros((3, 2)), jnp.zeros(2)),),
+        input_mean=jnp.zeros(3),
+        input_scale=jnp.ones(3),
+        output_scale=jnp.ones(2),
+    )  # the constant model z' = z: its k-step error is |z_{t+k} - z_t|²
+    starts = rollout_windows(data, data.mask, 3)
+    z = np.asarray(data.latents)
+    z = np.concatenate([z, np.asarray(data.next_latents[-1:])])
+    expected = np.mean([np.mean([np.mean((z[t + k] - z[t]) ** 2) for k in (1, 2, 3)]) for t in range(4)])
+    assert float(_rollout_mse(model, data, starts, 3)) == pytest.approx(expected, rel=1e-5)
+
+
+def test_a_model_trained_on_three_steps_fits_its_rollouts_and_reports_that_loss():
+    data, _ = chained(12, 20, jax.random.key(9))
+    settings = MLPSettings(widths=(16,), max_epochs=300, patience=50, learning_rate=1e-2, rollout=3)
+    model, fit = jax.jit(fit_mlp, static_argnums=2)(jax.random.key(10), data, settings)
+    starts = rollout_windows(data, data.mask, 3)
+    constant = _rollout_mse(model.replace(layers=jax.tree.map(jnp.zeros_like, model.layers)), data, starts, 3)
+    assert float(fit.validation_loss) < 0.1 * float(constant)
+    # the reported losses are the three-step objective, on each side of the split
+    assert (
+        0 < float(fit.train_loss) < float(_rollout_mse(model, data, starts, 3)) < float(fit.validation_loss)
+    )
+    with pytest.raises(SettingsError, match="rollout"):
+        MLPSettings(rollout=0)

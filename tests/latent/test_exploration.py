@@ -125,8 +125,12 @@ def test_a_kmeans_run_is_planned_with_a_model_of_exploratory_episodes(kmeans_run
     arguments += ["--data", "explored", "--explore-episodes", "3", "--explore-hold", "2"]
     if planner != "latent_lqr":
         arguments += ["--set", "horizon=2", "--set", "iterations=2", "--set", "warm_start=better"]
+    if planner == "latent_mpc":  # the model trained on two-step rollouts
+        arguments += ["--model", "rollout=2", "--model", "widths=8,8"]
     assert cli.main(arguments) == 0
     summary = json.loads(out.read_text())
+    mlp = summary["model_settings"]
+    assert (mlp["rollout"], mlp["widths"]) == ((2, [8, 8]) if planner == "latent_mpc" else (1, [64, 64]))
     assert summary["data"] == "explored" and summary["exploration"] == {"episodes": 3, "hold": 2}
     steps = summary["control_steps"]
     for entry in summary["seeds"]:
@@ -143,6 +147,9 @@ def test_a_kmeans_run_is_planned_with_a_model_of_exploratory_episodes(kmeans_run
         (["--data", "explored", "--explore-episodes", "0"], "exploration episodes=0"),
         (["--data", "both", "--explore-hold", "0"], "exploration hold=0"),
         (["--set", "warm_start=mlp"], "warm_start"),
+        (["--model", "depth=3"], "KEY one of"),
+        (["--model", "rollout=0"], "rollout"),
+        (["--model", "widths=wide"], "comma-separated ints"),
     ],
 )
 def test_bad_exploration_requests_are_refused_before_anything_is_written(

@@ -1,15 +1,17 @@
 """The seventh round's model check: how well each latent model predicts the task point's motion
 under actions it was not fitted on.
 
-    python docs/assets/2026-12-07/latent-control/heldout.py RUN_DIR OUT.json
+    python docs/assets/2026-12-07/latent-control/heldout.py RUN_DIR OUT.json [ROLLOUTS]
 
 Per seed of a trained run (vmapped, one program): the latent models of `python -m
 litl.latent.control` fitted on 32 exploratory episodes, and where its observer has a latent
 codec also on the run's buffer and on both (`litl.latent.exploration`, the command's defaults and key);
 then 16 more exploratory episodes under another key, held out from every fit. On them, for
-h = 1, 5, 20 control steps from every start: the RMS error of the predicted displacement of the
+h = 1, 5, 10, 20 control steps from every start (the seventh round's records: 1, 5, 20): the RMS error of the predicted displacement of the
 task point along x, Σ Δ v(ẑ) against Σ Δ v (the recorded velocities), in domain units, beside
 the zero-motion prediction's; and the model's latent RMS error beside the constant latent's.
+ROLLOUTS (e.g. ``1,3,5``): also fit the exploratory model with `loop.dynamics.mlp.rollout` K for
+each K other than 1 (sources ``explored-rollout<K>``), the multi-step training's check.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 
 import litl  # noqa: F401  (before JAX starts: litl.backend)
 
-HORIZONS = (1, 5, 20)
+HORIZONS = (1, 5, 10, 20)
 HELD_OUT = 16
 
 
@@ -50,7 +52,9 @@ def displacement_errors(model, data, h: int):
     return rms(predicted - true), rms(true)
 
 
-def main(run_dir: str, out: str) -> None:
+def main(run_dir: str, out: str, rollouts: str = "1") -> None:
+    import dataclasses
+
     from litl.envs import make
     from litl.latent.control import Episode, load
     from litl.latent.exploration import Exploration, explore, join
@@ -70,6 +74,11 @@ def main(run_dir: str, out: str) -> None:
     control_dt = episode.stride * robot.config.dt
     steps = episode.control_steps
     sources = ["buffer", "explored", "both"] if codec is not None else ["explored"]
+    steps_of = {source: 1 for source in sources}
+    for k in (int(k) for k in rollouts.split(",")):
+        if k != 1:
+            sources.append(f"explored-rollout{k}")
+            steps_of[sources[-1]] = k
 
     def one(observer, buffer, design, key):
         params = env_params.replace(design=robot.design_space.to_design(design, dtype), observer=observer)
@@ -81,7 +90,10 @@ def main(run_dir: str, out: str) -> None:
             parts["both"] = join(parts["buffer"], explored)
         result = {}
         for source in sources:
-            model, _ = fit_sequence(parts[source], key, config.loop.dynamics, control_dt, "mlp")
+            mlp = dataclasses.replace(config.loop.dynamics.mlp, rollout=steps_of[source])
+            settings = dataclasses.replace(config.loop.dynamics, mlp=mlp)
+            data = parts[source.partition("-")[0]]
+            model, _ = fit_sequence(data, key, settings, control_dt, "mlp")
             error = prediction_error(model.step, held.latents, held.actions, held.links, HORIZONS)
             moves = [displacement_errors(model, held, h) for h in HORIZONS]
             result[source] = {
