@@ -5,10 +5,11 @@ under actions it was not fitted on.
 
 Per seed of a trained run (vmapped, one program): the latent models of `python -m
 litl.latent.control` fitted on 32 exploratory episodes, and where its observer has a latent
-codec also on the run's buffer and on both (`litl.latent.exploration`, the command's defaults and key);
-then 16 more exploratory episodes under another key, held out from every fit. On them, for
-h = 1, 5, 10, 20 control steps from every start (the seventh round's records: 1, 5, 20): the RMS error of the predicted displacement of the
-task point along x, Σ Δ v(ẑ) against Σ Δ v (the recorded velocities), in domain units, beside
+codec also on the run's buffer and on both (`litl.latent.exploration`, the command's defaults
+and key); then 16 more exploratory episodes under another key, held out from every fit. On
+them, for h = 1, 5, 10, 20 control steps from every start (the seventh round's records: 1, 5,
+20): the RMS error of the predicted displacement of the task point along x, Σ Δ v(ẑ) against
+Σ Δ v (the recorded velocities), in domain units, beside
 the zero-motion prediction's; and the model's latent RMS error beside the constant latent's.
 ROLLOUTS (e.g. ``1,3,5``): also fit the exploratory model with `loop.dynamics.mlp.rollout` K for
 each K other than 1 (sources ``explored-rollout<K>``), the multi-step training's check.
