@@ -161,7 +161,6 @@ def run(
     import jax
     import jax.numpy as jnp
 
-    from litl.latent.exploration import Exploration
     from litl.latent.planning import PLANNERS, Goal
     from litl.models.controller import MLPController
     from litl.settings.dynamics import MLPSettings
@@ -177,12 +176,7 @@ def run(
         raise ControlError(
             "--control-steps: the trained reference replays the run's own rollout; leave it out"
         )
-    if data not in DATA:
-        raise ControlError(f"--data {data!r}: choose one of {DATA}")
-    if exploration is not None and data == "buffer":
-        raise ControlError("--explore-episodes/--explore-hold: set --data explored or both to use them")
-    if data != "buffer" and exploration is None:
-        exploration = Exploration()
+    exploration = _checked_data(data, exploration)
     parsed = Goal.parse(goal)
     settings = planner_settings(planner, list(overrides)) if planner in (*PLANNERS, "oracle_mpc") else None
     model_overrides = list(model_overrides)
@@ -474,6 +468,18 @@ def _parser() -> argparse.ArgumentParser:
         "--explore-hold", type=int, default=None, help="control steps each random action is held (default 4)"
     )
     return parser
+
+
+def _checked_data(data: str, exploration):
+    """The exploration `data` uses (its defaults where none is given); a `ControlError` for an
+    unknown `data` or exploration settings that `data` does not use."""
+    from litl.latent.exploration import Exploration
+
+    if data not in DATA:
+        raise ControlError(f"--data {data!r}: choose one of {DATA}")
+    if exploration is not None and data == "buffer":
+        raise ControlError("--explore-episodes/--explore-hold: set --data explored or both to use them")
+    return Exploration() if data != "buffer" and exploration is None else exploration
 
 
 def _exploration(episodes: int | None, hold: int | None):

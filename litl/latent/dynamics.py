@@ -271,7 +271,7 @@ def rollout_windows(data: Transitions, mask, steps: int):
     return usable
 
 
-def _rollout_mse(model: MLPDynamics, data: Transitions, starts, steps: int):
+def rollout_mse(model: MLPDynamics, data: Transitions, starts, steps: int):
     """() the mean over k = 1 ... `steps` of the k-step prediction's squared error per latent,
     rolled through the model under the recorded actions from the rows `starts`
     (`rollout_windows`)."""
@@ -333,8 +333,8 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
         output_scale=jnp.where(delta_spread > 0, delta_spread, 1),
     )
     optimizer = optax.adamw(settings.learning_rate, weight_decay=settings.weight_decay)
-    loss = lambda layers: _rollout_mse(model.replace(layers=layers), data, train_starts, steps)
-    checked_loss = lambda layers: _rollout_mse(model.replace(layers=layers), data, validation_starts, steps)
+    loss = lambda layers: rollout_mse(model.replace(layers=layers), data, train_starts, steps)
+    checked_loss = lambda layers: rollout_mse(model.replace(layers=layers), data, validation_starts, steps)
 
     def epoch(carry):
         layers, opt_state, best, best_loss, best_epoch, index = carry
@@ -363,7 +363,7 @@ def fit_mlp(key, data: Transitions, settings: MLPSettings | None = None) -> tupl
     _, _, best, best_loss, best_epoch, epochs = jax.lax.while_loop(going, epoch, initial)
     model = model.replace(layers=best)
     return model, MLPFit(
-        train_loss=_rollout_mse(model, data, train_starts, steps),
+        train_loss=rollout_mse(model, data, train_starts, steps),
         validation_loss=best_loss,
         best_epoch=best_epoch,
         epochs=epochs,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from litl.latent import LinearSettings, MLPSettings, Transitions, fit_linear, fit_mlp
-from litl.latent.dynamics import LinearDynamics, MLPDynamics, _rollout_mse, random_split, rollout_windows
+from litl.latent.dynamics import LinearDynamics, MLPDynamics, random_split, rollout_mse, rollout_windows
 from litl.settings import SettingsError
 
 
@@ -209,7 +209,7 @@ def test_the_multistep_loss_is_the_mean_of_the_rolled_errors():
     z = np.asarray(data.latents)
     z = np.concatenate([z, np.asarray(data.next_latents[-1:])])
     expected = np.mean([np.mean([np.mean((z[t + k] - z[t]) ** 2) for k in (1, 2, 3)]) for t in range(4)])
-    assert float(_rollout_mse(model, data, starts, 3)) == pytest.approx(expected, rel=1e-5)
+    assert float(rollout_mse(model, data, starts, 3)) == pytest.approx(expected, rel=1e-5)
 
 
 def test_a_model_trained_on_three_steps_fits_its_rollouts_and_reports_that_loss():
@@ -217,11 +217,9 @@ def test_a_model_trained_on_three_steps_fits_its_rollouts_and_reports_that_loss(
     settings = MLPSettings(widths=(16,), max_epochs=300, patience=50, learning_rate=1e-2, rollout=3)
     model, fit = jax.jit(fit_mlp, static_argnums=2)(jax.random.key(10), data, settings)
     starts = rollout_windows(data, data.mask, 3)
-    constant = _rollout_mse(model.replace(layers=jax.tree.map(jnp.zeros_like, model.layers)), data, starts, 3)
+    constant = rollout_mse(model.replace(layers=jax.tree.map(jnp.zeros_like, model.layers)), data, starts, 3)
     assert float(fit.validation_loss) < 0.1 * float(constant)
     # the reported losses are the three-step objective, on each side of the split
-    assert (
-        0 < float(fit.train_loss) < float(_rollout_mse(model, data, starts, 3)) < float(fit.validation_loss)
-    )
+    assert 0 < float(fit.train_loss) < float(rollout_mse(model, data, starts, 3)) < float(fit.validation_loss)
     with pytest.raises(SettingsError, match="rollout"):
         MLPSettings(rollout=0)
