@@ -54,6 +54,20 @@ def holm(p: list[float]) -> list[float]:
     return adjusted.tolist()
 
 
+def table(tests: list, adjusted: list[float] | None, header: str) -> None:
+    """A family's markdown table: each test's difference, p, Holm p and verdict at 0.05."""
+    print("\n" + header)
+    print("|---|---|---|---|---|")
+    for i, (label, result) in enumerate(tests):
+        if result is None:
+            print(f"| {label} | not run | | | |")
+            continue
+        difference, text, p = result
+        holm_p = adjusted[i] if adjusted is not None else float("nan")
+        verdict = "not resolved" if not holm_p < 0.05 else ("lower" if difference < 0 else "higher")
+        print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
+
+
 def main() -> None:
     runs = {
         "bunny vae": {c: BEFORE / "bunny" / "vae" / c for c in ("modulus", "actuators", "all")},
@@ -110,16 +124,9 @@ def main() -> None:
         )
     measured = [t for t in tests if t[1] is not None]
     adjusted = holm([t[1][2] for t in measured]) if len(measured) == len(tests) else None
-    print("\n| test | difference [90% CI] | two-sided p | Holm p (over 10) | verdict at 0.05 |")
-    print("|---|---|---|---|---|")
-    for i, (label, result) in enumerate(tests):
-        if result is None:
-            print(f"| {label} | not run | | | |")
-            continue
-        difference, text, p = result
-        holm_p = adjusted[i] if adjusted is not None else float("nan")
-        verdict = "not resolved" if not holm_p < 0.05 else ("lower" if difference < 0 else "higher")
-        print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
+    table(
+        tests, adjusted, "| test | difference [90% CI] | two-sided p | Holm p (over 10) | verdict at 0.05 |"
+    )
     if adjusted is None:
         print("\n(Holm needs all 10 tests: not adjusted yet)")
     reference(
@@ -132,6 +139,7 @@ def main() -> None:
         BEFORE / "bunny" / "vae",
         RECORDS / "bunny" / "kmeans",
     )
+    quadruped()
 
 
 def last_record(path: pathlib.Path) -> dict:
@@ -175,13 +183,65 @@ def reference(robot: str, vae, kmeans, vae_runs: pathlib.Path, kmeans_runs: path
         ("sep-CMA-ES minus litl k-means", welch(cmaes, kmeans)),
     ]
     adjusted = holm([t[1][2] for t in tests])
-    print(
-        "\n| test (design=all, final task loss) | difference [90% CI] | two-sided p | Holm p (2) | verdict |"
+    table(
+        tests,
+        adjusted,
+        "| test (design=all, final task loss) | difference [90% CI] | two-sided p | Holm p (2) | verdict |",
     )
-    print("|---|---|---|---|---|")
-    for (label, (difference, text, p)), holm_p in zip(tests, adjusted, strict=True):
-        verdict = "not resolved" if not holm_p < 0.05 else ("lower" if difference < 0 else "higher")
-        print(f"| {label} | {text} | {p:.2g} | {holm_p:.2g} | {verdict} |")
+
+
+QUADRUPED_CELLS = [f"{o}-{d}" for d in ("fixed", "modulus", "actuators", "all") for o in ("vae", "kmeans")]
+
+
+def seeds_ended(folder: pathlib.Path) -> list[pathlib.Path]:
+    """A one-seed-per-process cell's seed folders whose final.json exists, in seed order."""
+    found = [p for p in folder.glob("seed*") if (p / "final.json").exists()]
+    return sorted(found, key=lambda p: int(p.name[4:]))
+
+
+def quadruped() -> None:
+    """The third addendum's fourth family: the quadruped's cells, one process per seed. A test
+    runs when both its cells have ten seeds; Holm over the tests that run."""
+    folder = RECORDS / "quadruped"
+    print("\nquadruped (one seed per process; loop wall from metrics wall_s):")
+    losses = {}
+    for cell in QUADRUPED_CELLS:
+        ended = seeds_ended(folder / cell)
+        if not ended:
+            print(f"  {cell}: no seed ended")
+            continue
+        values = np.array([json.loads((p / "final.json").read_text())[0]["task_loss"] for p in ended])
+        walls = [last_record(p)["wall_s"] / 60 for p in ended]
+        processors = sorted(
+            {json.loads((p / "run.json").read_text())["provenance"]["processor"]["model"] for p in ended}
+        )
+        mean = f"; mean {interval(values)}" if len(values) >= 2 else ""
+        print(
+            f"  {cell}: {len(ended)} seeds ({', '.join(p.name[4:] for p in ended)}): "
+            + ", ".join(f"{v:.3f}" for v in values)
+            + f"{mean}; loop wall {min(walls):.1f}-{max(walls):.1f} min; {' + '.join(processors)}"
+        )
+        if len(ended) == 10:
+            losses[cell] = values
+    pairs = [
+        (f"{b}: VAE minus k-means", f"vae-{b}", f"kmeans-{b}")
+        for b in ("fixed", "modulus", "actuators", "all")
+    ]
+    for o, name in (("vae", "VAE"), ("kmeans", "k-means")):
+        pairs += [(f"{name}: all minus fixed", f"{o}-all", f"{o}-fixed")]
+        pairs += [(f"{name}: actuators minus fixed", f"{o}-actuators", f"{o}-fixed")]
+    tests = [(label, welch(losses[a], losses[b])) for label, a, b in pairs if a in losses and b in losses]
+    if not tests:
+        print("  no cell pair has ten seeds: no verdict (the addendum's rule)")
+        return
+    adjusted = holm([t[1][2] for t in tests])
+    header = (
+        "| test (quadruped, final task loss) | difference [90% CI] | two-sided p "
+        f"| Holm p ({len(tests)}) | verdict |"
+    )
+    table(tests, adjusted, header)
+    waiting = [label for label, a, b in pairs if a not in losses or b not in losses]
+    print(f"\n(not yet run, a cell short of ten seeds: {'; '.join(waiting) or 'none'})")
 
 
 if __name__ == "__main__":
