@@ -164,8 +164,7 @@ def reference(robot: str, vae, kmeans, vae_runs: pathlib.Path, kmeans_runs: path
     design=all; one process per seed) against litl VAE and litl k-means (kept clusters) under
     design=all, Welch two-sided, Holm over 2; grayness beside them."""
     folder = RECORDS / robot / "sep-cmaes-all"
-    seeds = sorted(folder.glob("seed*"), key=lambda p: int(p.name[4:]))
-    ended = [p for p in seeds if (p / "final.json").exists()]
+    ended = seeds_ended(folder)
     cmaes = np.array([json.loads((p / "final.json").read_text())[0]["task_loss"] for p in ended])
     gray = np.array([last_record(p)["geometry/grayness"] for p in ended])
     names = ", ".join(p.name for p in ended) or "none"
